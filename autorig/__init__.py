@@ -1,0 +1,25 @@
+"""autorig: automatic rigging of 3D characters.
+
+    import autorig
+    result = autorig.rig("hero.obj", "biped")      # -> autorig.Rig
+    result.joints, result.names, result.parents, result.weights
+
+Nothing heavy is imported here: the command line must start fast, so numpy, scipy, trimesh and libigl load
+only when a rig is actually computed.
+"""
+__version__ = "0.1.0"
+
+__all__ = ["rig", "Rig", "RigOptions", "AutorigError", "__version__"]
+
+
+def __getattr__(name):
+    if name in ("rig", "RigOptions"):
+        from . import pipeline
+        return getattr(pipeline, name)
+    if name == "Rig":
+        from .result import Rig
+        return Rig
+    if name == "AutorigError":
+        from .errors import AutorigError
+        return AutorigError
+    raise AttributeError(f"module 'autorig' has no attribute {name!r}")

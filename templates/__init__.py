@@ -1,0 +1,1 @@
+"""Built-in template skeletons, one JSON file each (read by ``autorig.template``)."""
