@@ -1,0 +1,250 @@
+"""Penalties of the discrete embedding, each vectorised over candidate spheres, with its weight.
+
+An embedding puts every joint of the reduced skeleton on a sphere of the graph; a reduced bone runs along the
+shortest graph path between its two spheres. Its cost is a weighted sum of the penalties below (all >= 0,
+dimensionless). Baran & Popović learn their weights from examples; these are set by hand on the project's own
+mannequins and checked on the shared real characters (see benchmarks/accuracy.py).
+
+=============  ======  ========================================================================================
+penalty        weight  what it measures
+=============  ======  ========================================================================================
+length         1.0     log of (graph path length / template length), squared: bones keep their proportions
+direction      0.8     1 - cos(angle) between the bone's straight-line direction and the template's; with the
+                       template facing +z and its left at +x this also keeps left and right from swapping
+feet           0.6     height of a foot joint above the lowest sphere, per 5% of the height: feet stand low
+symmetry       0.6     mismatch of a mirrored pair: mirror image of one bone vs the other, and their path
+                       lengths, relative to the bone length
+backtrack      1.5     how much a bone's path doubles back toward its grandparent: d(g,p) + d(p,j) - d(g,j),
+                       relative to the bone length
+overlap        3.0     length of a bone's path shared with paths already placed, relative to the bone length:
+                       limbs take disjoint routes (not counted near the parent joint, within the chain's first
+                       template bone or 40% of the bone's length, where limbs leave the trunk together)
+extremity      hard    leaf joints (tips) only at graph extremities (local maxima of the distance from the
+                       graph's centre that stand out by 3% of the height)
+fat            1.0     1 - radius / largest radius for joints the template calls fat (hips, chest), which
+                       must moreover sit on spheres at least a quarter as wide as the largest
+distinct       hard    no two joints on one sphere
+=============  ======  ========================================================================================
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..graph import SphereGraph
+from ..template import ReducedSkeleton, Template
+
+WEIGHTS = {
+    "length": 1.0,
+    "direction": 0.8,
+    "feet": 0.6,
+    "symmetry": 0.6,
+    "backtrack": 1.5,
+    "overlap": 3.0,
+    "fat": 1.0,
+}
+FEET_UNIT = 0.05          # height (fraction of the figure) that costs one unit of the feet penalty
+SHARED_FRACTION = 0.4     # paths may share spheres up to this fraction of the bone's length from its parent
+PROMINENCE = 0.08         # how far (height units) a limb's end must stand out to count as an extremity
+FAT_FRACTION = 0.25       # a fat joint's sphere is at least this fraction of the largest sphere's radius
+
+
+@dataclass
+class EmbeddingProblem:
+    """Everything the search needs, precomputed.
+
+    graph       the sphere graph
+    reduced     the template's reduced skeleton (K joints)
+    candidates  [K] arrays of the spheres each reduced joint may occupy
+    bone_cost   [K] arrays [S, S]: cost of reduced bone j with its parent on sphere u and j on sphere v
+                (length + direction + feet); row/column outside the candidates is inf; None for the root
+    root_cost   [S] cost of the root on each sphere (inf off its candidates)
+    mirror      [K] reduced index of each joint's mirror image, -1 if none
+    vectors     [K, 3] template vector of each reduced bone (parent to joint), zero for the root
+    is_foot     [K] bool
+    shared_ok   [K] how far (path length from the parent) a reduced bone may share spheres with other paths
+    """
+    graph: SphereGraph
+    reduced: ReducedSkeleton
+    candidates: list[np.ndarray]
+    bone_cost: list
+    root_cost: np.ndarray
+    mirror: np.ndarray
+    vectors: np.ndarray
+    is_foot: np.ndarray
+    shared_ok: np.ndarray
+
+
+def graph_extremities(graph: SphereGraph, min_prominence: float = PROMINENCE) -> np.ndarray:
+    """Indices of the spheres that end limbs: local maxima of the path distance from the graph's centre
+    that stand out by at least ``min_prominence`` (height units).
+
+    A local maximum's prominence is how far down one must go from it before a higher maximum can be
+    reached (its persistence in the superlevel sets of the distance, found with union-find). A fingertip or
+    the tip of a tail stands out by a limb's length; a bump on the side of a tail only by the bump's.
+    """
+    from_centre = graph.distances[int(np.argmin(graph.distances.max(axis=1)))]
+    from_centre = np.where(np.isfinite(from_centre), from_centre, -1.0)
+    neighbours = graph.neighbours()
+    order = np.argsort(-from_centre, kind="stable")
+    root = np.full(len(order), -1)
+    peak = np.zeros(len(order), dtype=np.int64)      # highest node of each component, kept at its root
+    prominence = np.zeros(len(order))
+
+    def find(i):
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = root[i]
+        return i
+
+    for v in order:
+        root[v], peak[v] = v, v
+        for w in neighbours[v]:
+            if root[w] < 0:
+                continue
+            a, b = find(v), find(w)
+            if a == b:
+                continue
+            # The component whose peak is lower dies here.
+            low, high = (a, b) if from_centre[peak[a]] < from_centre[peak[b]] else (b, a)
+            prominence[peak[low]] = from_centre[peak[low]] - from_centre[v]
+            root[low] = high
+    top = peak[find(order[0])]
+    prominence[top] = np.inf
+    return np.flatnonzero(prominence >= min_prominence)
+
+
+def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
+    reduced = template.reduced()
+    K, S = len(reduced.joints), len(graph.radii)
+    kids = [[] for _ in range(K)]
+    for k, p in enumerate(reduced.parents):
+        if p >= 0:
+            kids[p].append(k)
+    fat = set(template.fat)
+    ends = graph_extremities(graph)
+    thick = np.flatnonzero(graph.radii >= FAT_FRACTION * graph.radii.max())
+    thinness = WEIGHTS["fat"] * (1.0 - graph.radii / graph.radii.max())
+    everything = np.arange(S)
+    candidates = []
+    for k, j in enumerate(reduced.joints):
+        if not kids[k] and len(ends) >= sum(1 for c in kids if not c):
+            candidates.append(ends)
+        elif j in fat:
+            candidates.append(thick)
+        else:
+            candidates.append(everything)
+
+    feet = set(template.feet)
+    is_foot = np.array([j in feet for j in reduced.joints])
+    lowest = graph.centers[:, 1].min()
+    feet_cost = WEIGHTS["feet"] * (graph.centers[:, 1] - lowest) / FEET_UNIT
+
+    tpos = template.positions[reduced.joints]
+    vectors = np.zeros((K, 3))
+    bone_cost = [None] * K
+    C, D = graph.centers, graph.distances
+    for k in range(1, K):
+        p = reduced.parents[k]
+        vectors[k] = tpos[k] - tpos[p]
+        length = reduced.lengths[k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_ratio = np.log(np.maximum(D, 1e-9) / length)
+        cost = WEIGHTS["length"] * log_ratio ** 2
+        offset = C[None, :, :] - C[:, None, :]                              # [S, S, 3] u -> v
+        norm = np.linalg.norm(offset, axis=2)
+        direction = vectors[k] / np.linalg.norm(vectors[k])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cos = np.where(norm > 0, offset @ direction / norm, -1.0)
+        cost = cost + WEIGHTS["direction"] * (1.0 - cos)
+        if is_foot[k]:
+            cost = cost + feet_cost[None, :]
+        if reduced.joints[k] in fat:
+            cost = cost + thinness[None, :]
+        mask = np.full((S, S), np.inf)
+        mask[np.ix_(candidates[p], candidates[k])] = 0.0
+        cost = cost + mask
+        cost[~np.isfinite(D)] = np.inf
+        bone_cost[k] = cost
+    root_cost = np.full(S, np.inf)
+    root_cost[candidates[0]] = thinness[candidates[0]] if reduced.joints[0] in fat else 0.0
+
+    names = [template.names[j] for j in reduced.joints]
+    mirror_full = template.mirror_of()
+    mirror = np.array([names.index(template.names[mirror_full[j]]) if template.names[mirror_full[j]] in names
+                       and mirror_full[j] != j else -1 for j in reduced.joints])
+    # Limbs leave the trunk together (a chest's neck and shoulders, a pelvis's two thighs) and part ways
+    # within about the first bone and at the latest by the middle of the limb; two limbs that still share
+    # spheres beyond that are one limb embedded twice.
+    first_bone = np.array([0.0] + [float(np.linalg.norm(template.positions[c[1]] - template.positions[c[0]]))
+                                   for c in reduced.chains[1:]])
+    shared_ok = np.maximum(first_bone, SHARED_FRACTION * reduced.lengths)
+    return EmbeddingProblem(graph, reduced, candidates, bone_cost, root_cost, mirror, vectors, is_foot,
+                            shared_ok)
+
+
+def symmetry_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, spheres: np.ndarray,
+                     mirror_sphere: int, mirror_parent_sphere: int) -> np.ndarray:
+    """[N] penalty for placing joint k on each of ``spheres`` when its mirror image is already placed."""
+    C, D = problem.graph.centers, problem.graph.distances
+    flip = np.array([-1.0, 1.0, 1.0])
+    mine = (C[spheres] - C[parent_sphere]) * flip
+    theirs = C[mirror_sphere] - C[mirror_parent_sphere]
+    length = problem.reduced.lengths[k]
+    shape = np.linalg.norm(mine - theirs, axis=1) / length
+    lengths = np.abs(D[parent_sphere, spheres] - D[mirror_parent_sphere, mirror_sphere]) / length
+    return WEIGHTS["symmetry"] * (shape + lengths)
+
+
+def backtrack_penalty(problem: EmbeddingProblem, k: int, grandparent_sphere: int, parent_sphere: int,
+                      spheres: np.ndarray) -> np.ndarray:
+    """[N] penalty for a bone whose path turns back toward the grandparent joint."""
+    D = problem.graph.distances
+    detour = D[grandparent_sphere, parent_sphere] + D[parent_sphere, spheres] - D[grandparent_sphere, spheres]
+    return WEIGHTS["backtrack"] * np.maximum(detour, 0.0) / problem.reduced.lengths[k]
+
+
+class PathOverlap:
+    """Length of the shortest path from a source sphere to every sphere that runs over a set of spheres.
+
+    For each source u (cached, built on first use) a sparse matrix [S, S] holds, in row v, the length of
+    each edge of the path u -> v at the column of the edge's far sphere; one sparse product with a [S]
+    indicator of used spheres then gives the shared length of all paths from u at once.
+    """
+
+    def __init__(self, graph: SphereGraph):
+        self.graph = graph
+        self._by_source: dict[int, object] = {}
+
+    def matrix(self, u: int):
+        if u not in self._by_source:
+            from scipy.sparse import csr_matrix
+            g = self.graph
+            S = len(g.radii)
+            predecessor = g.predecessors[u]
+            order = np.argsort(g.distances[u], kind="stable")
+            rows_of: list[list[int]] = [[] for _ in range(S)]
+            rows, cols, vals = [], [], []
+            for v in order[1:]:
+                w = predecessor[v]
+                if w < 0:
+                    break
+                # path(u, v) = path(u, w) + edge (w, v)
+                rows_of[v] = rows_of[w] + [v]
+            edge_to = np.linalg.norm(g.centers - g.centers[np.maximum(predecessor, 0)], axis=1)
+            for v in range(S):
+                rows.extend([v] * len(rows_of[v]))
+                cols.extend(rows_of[v])
+            cols = np.array(cols, dtype=np.int64)
+            vals = edge_to[cols] if len(cols) else np.zeros(0)
+            self._by_source[u] = csr_matrix((vals, (np.array(rows, dtype=np.int64), cols)), shape=(S, S))
+        return self._by_source[u]
+
+
+def overlap_penalty(problem: EmbeddingProblem, overlap: PathOverlap, k: int, parent_sphere: int,
+                    used: np.ndarray, spheres: np.ndarray) -> np.ndarray:
+    """[N] penalty: length of the path parent -> sphere that runs over ``used`` spheres ([S] bool, the
+    spheres on the paths already placed, the parent's own sphere excluded)."""
+    shared = overlap.matrix(parent_sphere)[spheres] @ used.astype(np.float64)
+    return WEIGHTS["overlap"] * shared / problem.reduced.lengths[k]

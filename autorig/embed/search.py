@@ -1,0 +1,135 @@
+"""A* search over partial embeddings of the reduced skeleton.
+
+A state places the first m reduced joints (parents before children) on spheres. Its cost so far is the sum of
+the penalties of the bones placed; its estimate of what is left is, for every joint not yet placed, the
+cheapest its bone could possibly cost: given its parent's sphere when that is placed, otherwise over all
+parent and child spheres. The penalties that depend on other bones (symmetry, backtrack, overlap) are >= 0
+and left out of the estimate, so it never overestimates (admissible), and the first complete embedding taken
+off the queue is the optimal one.
+"""
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import RigFailedError
+from .penalties import EmbeddingProblem, PathOverlap, backtrack_penalty, overlap_penalty, symmetry_penalty
+
+
+@dataclass
+class Embedding:
+    """spheres [K] sphere of each reduced joint; paths [K] sphere paths of each reduced bone, parent to joint
+    (the root's is just its sphere); cost the total penalty; expanded number of states taken off the queue."""
+    spheres: np.ndarray
+    paths: list[list[int]]
+    cost: float
+    expanded: int
+
+
+GREEDY_STARTS = 8
+
+
+def search(problem: EmbeddingProblem, max_expansions: int = 200_000) -> Embedding:
+    K = len(problem.reduced.joints)
+    parents = problem.reduced.parents
+    children = [[c for c in range(K) if parents[c] == k] for k in range(K)]
+    # Cheapest cost of bone k given its parent's sphere ([S]), and with nothing placed (scalar).
+    best_given_parent = [None] + [np.min(problem.bone_cost[k], axis=1) for k in range(1, K)]
+    best_anywhere = np.array([0.0] + [float(np.min(best_given_parent[k])) for k in range(1, K)])
+    if not np.all(np.isfinite(best_anywhere)) or not np.isfinite(problem.root_cost).any():
+        raise RigFailedError("the template does not fit this shape: some joint has no place to go "
+                             "(too few limbs or extremities in the mesh)")
+
+    overlap = PathOverlap(problem.graph)
+    S = len(problem.graph.radii)
+    # Spheres on the paths of each expanded state's bones, built from its parent state's.
+    used_by_state: dict[tuple[int, ...], np.ndarray] = {(): np.zeros(S, dtype=bool)}
+
+    def estimate(placed: tuple[int, ...]) -> float:
+        m = len(placed)
+        total = 0.0
+        for k in range(m, K):
+            p = parents[k]
+            total += best_given_parent[k][placed[p]] if p < m else best_anywhere[k]
+        return total
+
+    def expand(placed: tuple[int, ...], g: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Spheres [N] the next joint can take, with the cost so far [N] and the estimate of the total [N]."""
+        k = len(placed)
+        p = parents[k]
+        u = placed[p]
+        used = used_by_state[placed[:-1]].copy()
+        if k > 1:
+            used[problem.graph.path(placed[parents[k - 1]], placed[k - 1])] = True
+        used_by_state[placed] = used
+        candidates = problem.candidates[k]
+        cost = problem.bone_cost[k][u, candidates].copy()
+        cost[np.isin(candidates, placed)] = np.inf
+        grandparent = parents[p]
+        if grandparent >= 0:
+            cost += backtrack_penalty(problem, k, placed[grandparent], u, candidates)
+        mirror = problem.mirror[k]
+        if 0 <= mirror < k:
+            cost += symmetry_penalty(problem, k, u, candidates, placed[mirror], placed[parents[mirror]])
+        if k > 1:
+            here = used & (problem.graph.distances[u] > problem.shared_ok[k])
+            cost += overlap_penalty(problem, overlap, k, u, here, candidates)
+        # The estimate for the joints after k: tight for those whose parent is placed (k's children
+        # among them, per candidate sphere), loose for the others.
+        later = sum(best_given_parent[j][placed[parents[j]]] if parents[j] < k else best_anywhere[j]
+                    for j in range(k + 1, K) if parents[j] != k)
+        bound = later + sum((best_given_parent[c][candidates] for c in children[k]), np.zeros(len(candidates)))
+        g2 = g + cost
+        keep = np.isfinite(g2) & np.isfinite(bound)
+        return candidates[keep], g2[keep], (g2 + bound)[keep]
+
+    # Greedy descents from the most promising roots give complete embeddings; the cheapest bounds the
+    # search from above, so states that cannot beat it are never queued.
+    upper = np.inf
+    roots = np.flatnonzero(np.isfinite(problem.root_cost))
+    root_f = np.array([problem.root_cost[s] + estimate((int(s),)) for s in roots])
+    for s in roots[np.argsort(root_f, kind="stable")[:GREEDY_STARTS]]:
+        placed, g = (int(s),), float(problem.root_cost[s])
+        while len(placed) < K:
+            spheres, g2, f2 = expand(placed, g)
+            if len(spheres) == 0:
+                break
+            best = int(np.argmin(f2))
+            placed, g = placed + (int(spheres[best]),), float(g2[best])
+        if len(placed) == K:
+            upper = min(upper, g * (1 + 1e-9) + 1e-12)
+
+    counter = 0
+    queue = []
+    for s in np.flatnonzero(np.isfinite(problem.root_cost)):
+        g = float(problem.root_cost[s])
+        placed = (int(s),)
+        f = g + estimate(placed)
+        if f <= upper:
+            heapq.heappush(queue, (f, counter, g, placed))
+            counter += 1
+
+    expanded = 0
+    while queue:
+        f, _, g, placed = heapq.heappop(queue)
+        if len(placed) == K:
+            return Embedding(np.array(placed), _paths(problem, placed), g, expanded)
+        expanded += 1
+        if expanded > max_expansions:
+            break
+        spheres, g2, f2 = expand(placed, g)
+        for i in np.flatnonzero(f2 <= upper):
+            heapq.heappush(queue, (float(f2[i]), counter, float(g2[i]), placed + (int(spheres[i]),)))
+            counter += 1
+    raise RigFailedError(f"the template could not be embedded in this shape (searched {expanded} "
+                         f"partial embeddings without completing one)")
+
+
+def _paths(problem: EmbeddingProblem, placed: tuple[int, ...]) -> list[list[int]]:
+    parents = problem.reduced.parents
+    out = [[placed[0]]]
+    for k in range(1, len(placed)):
+        out.append(problem.graph.path(placed[parents[k]], placed[k]))
+    return out

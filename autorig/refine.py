@@ -1,0 +1,134 @@
+"""Continuous refinement: from the discrete embedding to every template joint's position.
+
+First every joint of a collapsed chain is put on its reduced bone's sphere path, at the arc-length fraction
+its template position has along the chain (a tip joint extends the path to the surface, so the joints before
+it sit inside the limb, not at its end). Then all joints move together to minimise, with scipy's L-BFGS-B and
+an exact gradient:
+
+=============  ======  ==================================================================================
+term           weight  what it asks
+=============  ======  ==================================================================================
+depth          1.0     each joint at least as deep in the volume as where it started (centred in its limb)
+inside         4.0     every bone's segment inside the mesh
+length         1.0     bone lengths as placed on the paths (squared relative change)
+symmetry       0.5     mirrored joints mirror images of each other about the body's mid-plane
+anchor         0.2     joints stay near where the embedding put them (squared, per 5% of the height)
+=============  ======  ==================================================================================
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .distance import DistanceField
+from .embed import Embedding
+from .graph import SphereGraph
+from .template import Template
+
+TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "symmetry": 0.5, "anchor": 0.2}
+ANCHOR_UNIT = 0.05
+BONE_SAMPLES = np.linspace(0.0, 1.0, 6)[1:-1]
+
+
+def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template) -> np.ndarray:
+    """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths."""
+    reduced = template.reduced()
+    positions = np.zeros((len(template.names), 3))
+    positions[reduced.joints[0]] = graph.centers[embedding.spheres[0]]
+    for k in range(1, len(reduced.joints)):
+        chain = reduced.chains[k]
+        polyline = graph.centers[embedding.paths[k]]
+        if template.is_tip(chain[-1]):
+            polyline = _extend_to_surface(polyline, graph.radii[embedding.paths[k][-1]])
+        seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
+        arc = np.concatenate([[0.0], np.cumsum(seg)])
+        template_seg = np.linalg.norm(np.diff(template.positions[chain], axis=0), axis=1)
+        fractions = np.concatenate([[0.0], np.cumsum(template_seg)]) / template_seg.sum()
+        for joint, s in zip(chain[1:], fractions[1:]):
+            positions[joint] = _point_at(polyline, arc, s * arc[-1])
+    return positions
+
+
+def _extend_to_surface(polyline: np.ndarray, radius: float) -> np.ndarray:
+    """The polyline [P, 3] continued past its last sphere centre by the sphere's radius."""
+    if len(polyline) < 2:
+        return polyline
+    direction = polyline[-1] - polyline[-2]
+    direction /= max(np.linalg.norm(direction), 1e-12)
+    return np.vstack([polyline, polyline[-1] + radius * direction])
+
+
+def _point_at(polyline: np.ndarray, arc: np.ndarray, s: float) -> np.ndarray:
+    if arc[-1] <= 0:
+        return polyline[0].copy()
+    i = int(np.clip(np.searchsorted(arc, s) - 1, 0, len(arc) - 2))
+    t = (s - arc[i]) / max(arc[i + 1] - arc[i], 1e-12)
+    return polyline[i] + np.clip(t, 0.0, 1.0) * (polyline[i + 1] - polyline[i])
+
+
+def refine(field: DistanceField, initial: np.ndarray, template: Template, max_iterations: int = 200) -> np.ndarray:
+    """[J, 3] joint positions after continuous optimisation, starting from ``initial`` [J, 3]."""
+    from scipy.optimize import minimize
+
+    J = len(template.names)
+    parents = template.parents
+    child = np.flatnonzero(parents >= 0)
+    parent = parents[child]
+    # Tips sit on the surface on purpose; they neither need depth nor give depth to their bone.
+    solid = np.array([not template.is_tip(j) for j in range(J)])
+    solid_bone = solid[child]
+    target_depth = np.maximum(field.depth(initial), 0.0)
+    rest_length = np.maximum(np.linalg.norm(initial[child] - initial[parent], axis=1), 1e-6)
+    left = np.array([i for i, j in template.symmetry])
+    right = np.array([j for i, j in template.symmetry])
+    flip = np.array([-1.0, 1.0, 1.0])
+    scale = max(float(target_depth[solid].max()) if solid.any() else 0.0, 1e-3)
+
+    def objective(flat: np.ndarray) -> tuple[float, np.ndarray]:
+        X = flat.reshape(J, 3)
+        grad = np.zeros_like(X)
+        total = 0.0
+
+        # depth: joints no shallower than where they started
+        d, gd = field.depth_and_gradient(X[solid])
+        short = np.maximum(target_depth[solid] - d, 0.0) / scale
+        total += TERMS["depth"] * np.sum(short ** 2)
+        grad[solid] += TERMS["depth"] * (-2.0 * short / scale)[:, None] * gd
+
+        # inside: sample points along solid bones stay inside
+        a, b = X[parent[solid_bone]], X[child[solid_bone]]
+        s = BONE_SAMPLES[None, :, None]
+        pts = (a[:, None, :] * (1 - s) + b[:, None, :] * s).reshape(-1, 3)
+        d, gd = field.depth_and_gradient(pts)
+        out = np.maximum(-d, 0.0) / scale
+        total += TERMS["inside"] * np.sum(out ** 2)
+        g_pts = (TERMS["inside"] * 2.0 * out / scale)[:, None] * -gd
+        g_pts = g_pts.reshape(len(a), len(BONE_SAMPLES), 3)
+        np.add.at(grad, parent[solid_bone], np.sum(g_pts * (1 - s), axis=1))
+        np.add.at(grad, child[solid_bone], np.sum(g_pts * s, axis=1))
+
+        # length: bones keep the lengths they had on the paths
+        v = X[child] - X[parent]
+        length = np.maximum(np.linalg.norm(v, axis=1), 1e-12)
+        rel = (length - rest_length) / rest_length
+        total += TERMS["length"] * np.sum(rel ** 2)
+        g_v = (TERMS["length"] * 2.0 * rel / rest_length / length)[:, None] * v
+        np.add.at(grad, child, g_v)
+        np.add.at(grad, parent, -g_v)
+
+        # symmetry: mirror pairs about the plane x = 0 (the body's mid-plane in the canonical frame)
+        if len(left):
+            diff = X[left] * flip - X[right]
+            total += TERMS["symmetry"] * np.sum(diff ** 2) / ANCHOR_UNIT ** 2
+            g = TERMS["symmetry"] * 2.0 * diff / ANCHOR_UNIT ** 2
+            grad[left] += g * flip
+            grad[right] -= g
+
+        # anchor
+        shift = X - initial
+        total += TERMS["anchor"] * np.sum(shift ** 2) / ANCHOR_UNIT ** 2
+        grad += TERMS["anchor"] * 2.0 * shift / ANCHOR_UNIT ** 2
+        return float(total), grad.ravel()
+
+    result = minimize(objective, initial.ravel(), jac=True, method="L-BFGS-B",
+                      options={"maxiter": max_iterations})
+    return result.x.reshape(J, 3)
