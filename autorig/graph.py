@@ -45,48 +45,72 @@ class SphereGraph:
         return [np.array(sorted(n), dtype=np.int64) for n in out]
 
 
-def segments_inside(field: DistanceField, starts: np.ndarray, ends: np.ndarray, samples: int = 8,
-                    margin: float = 0.0) -> np.ndarray:
-    """[N] bool: whether each segment starts[i] -> ends[i] ([N, 3] each) stays at depth > margin."""
+def segments_inside(field: DistanceField, starts: np.ndarray, ends: np.ndarray, samples: int = 8) -> np.ndarray:
+    """[N] bool: whether each segment starts[i] -> ends[i] ([N, 3] each) stays inside the mesh."""
     t = np.linspace(0.0, 1.0, samples)[None, :, None]
     points = starts[:, None, :] * (1 - t) + ends[:, None, :] * t
     depth = field.depth(points.reshape(-1, 3)).reshape(len(starts), samples)
-    return np.all(depth > margin, axis=1)
+    return np.all(depth > 0, axis=1)
 
 
 def sphere_graph(field: DistanceField, spheres: Spheres) -> SphereGraph:
-    """Join overlapping spheres whose connecting segment stays inside, then keep the largest connected part.
+    """Join overlapping spheres whose connecting segment stays inside, bridge the pieces that packing left
+    apart, then keep the connected part that holds the body.
 
-    Small pieces the interior test cut off (an eye, a button, a loose accessory) carry no limb the template
-    could use; the skin attachment still weights them.
+    Greedy packing can leave two neighbouring spheres of a limb just short of touching, which would cut the
+    limb off; each piece is therefore joined to its nearest sphere in another piece when the segment
+    between them stays inside. Pieces that still stand alone (an eye, a button, a loose accessory) carry no
+    limb the template could use; the skin attachment still weights them.
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components, shortest_path
     from scipy.spatial import cKDTree
 
     c, r = spheres.centers, spheres.radii
-    pairs = cKDTree(c).query_pairs(2 * float(r.max()), output_type="ndarray")
-    if len(pairs):
-        gap = np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1)
-        overlap = gap < r[pairs[:, 0]] + r[pairs[:, 1]]
-        pairs = pairs[overlap]
-        if len(pairs):
-            pairs = pairs[segments_inside(field, c[pairs[:, 0]], c[pairs[:, 1]])]
     n = len(r)
-    lengths = np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) if len(pairs) else np.zeros(0)
-    adjacency = coo_matrix((lengths, (pairs[:, 0], pairs[:, 1])), shape=(n, n)).tocsr() if len(pairs) \
-        else coo_matrix((n, n)).tocsr()
-    _, labels = connected_components(adjacency, directed=False)
-    # The part holding the most sphere volume is the body.
-    volume = np.bincount(labels, weights=r ** 3)
-    keep = np.flatnonzero(labels == int(np.argmax(volume)))
+    pairs = cKDTree(c).query_pairs(2 * float(r.max()), output_type="ndarray").reshape(-1, 2)
+    gap = np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1)
+    pairs = pairs[gap < r[pairs[:, 0]] + r[pairs[:, 1]]]
+    pairs = pairs[segments_inside(field, c[pairs[:, 0]], c[pairs[:, 1]])]
+    pairs = _bridge_pieces(field, c, r, pairs)
+
+    def adjacency(edges, size):
+        w = np.linalg.norm(c_kept[edges[:, 0]] - c_kept[edges[:, 1]], axis=1)
+        return coo_matrix((w, (edges[:, 0], edges[:, 1])), shape=(size, size)).tocsr(), w
+
+    c_kept = c
+    _, labels = connected_components(adjacency(pairs, n)[0], directed=False)
+    # The piece holding the most sphere volume is the body.
+    keep = np.flatnonzero(labels == int(np.argmax(np.bincount(labels, weights=r ** 3))))
     remap = np.full(n, -1)
     remap[keep] = np.arange(len(keep))
-    inside_part = (remap[pairs[:, 0]] >= 0) & (remap[pairs[:, 1]] >= 0) if len(pairs) else np.zeros(0, bool)
-    edges = np.sort(remap[pairs[inside_part]], axis=1) if len(pairs) else np.zeros((0, 2), np.int64)
-    lengths = lengths[inside_part]
-    m = len(keep)
-    adjacency = coo_matrix((lengths, (edges[:, 0], edges[:, 1])), shape=(m, m)).tocsr()
-    distances, predecessors = shortest_path(adjacency, directed=False, return_predecessors=True)
-    return SphereGraph(centers=c[keep], radii=r[keep], edges=edges, lengths=lengths,
+    edges = np.sort(remap[pairs[np.all(remap[pairs] >= 0, axis=1)]], axis=1)
+    c_kept = c[keep]
+    matrix, lengths = adjacency(edges, len(keep))
+    distances, predecessors = shortest_path(matrix, directed=False, return_predecessors=True)
+    return SphereGraph(centers=c_kept, radii=r[keep], edges=edges, lengths=lengths,
                        distances=distances, predecessors=predecessors)
+
+
+def _bridge_pieces(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """``pairs`` [E, 2] plus, for each connected piece, an edge to the nearest sphere of another piece
+    (nearest by the gap between the sphere surfaces) whenever that segment stays inside."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(r)
+    ones = np.ones(len(pairs))
+    _, labels = connected_components(coo_matrix((ones, (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False)
+    gap = np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2) - r[:, None] - r[None, :]
+    gap[labels[:, None] == labels[None, :]] = np.inf
+    extra = []
+    for piece in np.unique(labels):
+        members = np.flatnonzero(labels == piece)
+        sub = gap[members]
+        i, j = np.unravel_index(np.argmin(sub), sub.shape)
+        if np.isfinite(sub[i, j]):
+            extra.append(sorted((int(members[i]), int(j))))
+    extra = np.unique(np.array(extra, dtype=np.int64).reshape(-1, 2), axis=0)
+    if len(extra):
+        extra = extra[segments_inside(field, c[extra[:, 0]], c[extra[:, 1]])]
+    return np.vstack([pairs, extra]).astype(np.int64)
