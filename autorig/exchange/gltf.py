@@ -1,0 +1,393 @@
+"""glTF 2.0 with a skin: :func:`write_glb` / :func:`write_gltf` write a :class:`Rig`, :func:`read_glb` reads one
+back from any skinned glTF or GLB.
+
+What is written (node index = joint index, so the file reads back in the rig's own order):
+
+- nodes ``0 .. J-1``: the joints, named by joint name, nested as ``rig.parents`` says; each has
+  ``translation`` = its offset from its parent joint (its position for the root) and no rotation or scale;
+- node ``J``: the mesh node, at the scene root with no transform (a skinned mesh ignores its own node's
+  transform, so the validator warns about any);
+- one mesh, one triangle primitive: ``POSITION`` (float32, the input vertices in input order and count),
+  ``NORMAL`` (float32, area-weighted vertex normals), ``indices`` (uint32), ``JOINTS_0`` (uint8, or uint16
+  past 256 joints) and ``WEIGHTS_0`` (float32): each vertex's 4 strongest joints, see :func:`top4_influences`;
+- one skin over all joints, named after the template, whose ``inverseBindMatrices`` translate by minus each
+  joint's position (the bind pose is the rest pose the rig was built in).
+"""
+from __future__ import annotations
+
+import base64
+import binascii
+import os
+import struct
+from pathlib import Path
+from urllib.parse import unquote
+
+import numpy as np
+import pygltflib
+from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, Mesh, Node, Primitive, Scene,
+                       Skin)
+
+from .. import __version__
+from ..errors import InputError
+from ..result import Rig
+from . import check_rig, write_file_atomic
+
+__all__ = ["write_glb", "write_gltf", "glb_bytes", "gltf_bytes", "read_glb", "top4_influences",
+           "vertex_normals"]
+
+_COMPONENT_DTYPES = {
+    pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
+    pygltflib.SHORT: np.int16, pygltflib.UNSIGNED_SHORT: np.uint16,
+    pygltflib.UNSIGNED_INT: np.uint32, pygltflib.FLOAT: np.float32,
+}
+_TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def write_glb(rig: Rig, path: str | os.PathLike) -> None:
+    """Write ``rig`` as a binary glTF (``.glb``) file, atomically; ``OutputError`` if it cannot be written."""
+    write_file_atomic(path, glb_bytes(rig))
+
+
+def write_gltf(rig: Rig, path: str | os.PathLike) -> None:
+    """Write ``rig`` as one self-contained ``.gltf`` JSON file (the buffer embedded as a base64 data URI)."""
+    write_file_atomic(path, gltf_bytes(rig))
+
+
+def glb_bytes(rig: Rig) -> bytes:
+    """The ``.glb`` file for ``rig``; the same rig always gives the same bytes."""
+    doc, blob = _document(rig)
+    doc.set_binary_blob(blob)
+    return b"".join(doc.save_to_bytes())
+
+
+def gltf_bytes(rig: Rig) -> bytes:
+    """The self-contained ``.gltf`` file for ``rig``; the same rig always gives the same bytes."""
+    doc, blob = _document(rig)
+    doc.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(blob).decode("ascii")
+    return doc.gltf_to_json(indent=1).encode("utf-8") + b"\n"
+
+
+def top4_influences(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The up-to-4 joints that move each vertex, as glTF's ``JOINTS_0`` / ``WEIGHTS_0`` store them.
+
+    weights  [V, J] skin weights (rows >= 0, each with some positive weight)
+    returns  joints [V, 4] int64, the 4 largest weights' joint indices, strongest first, ties to the lower
+             index; weights [V, 4] float32, those weights rescaled to sum to 1. A slot whose weight is 0
+             (fewer than 4 influences) holds joint 0.
+
+    The strongest weight is stored as 1 minus the other three (summed in float64), so the float32 row sums
+    to 1 within half a float32 ulp, well inside the validator's tolerance.
+    """
+    weights = np.asarray(weights, dtype=np.float64)
+    V, J = weights.shape
+    joints = np.zeros((V, 4), dtype=np.int64)
+    top = np.zeros((V, 4), dtype=np.float64)
+    k = min(4, J)
+    joints[:, :k] = np.argsort(-weights, axis=1, kind="stable")[:, :k]
+    top[:, :k] = np.take_along_axis(weights, joints[:, :k], axis=1)
+    total = top.sum(axis=1)
+    if np.any(total <= 0):
+        raise ValueError(f"vertex {int(np.argmax(total <= 0))} has no skin weight")
+    top32 = (top / total[:, None]).astype(np.float32)
+    top32[:, 0] = 1.0 - top32[:, 1:].astype(np.float64).sum(axis=1)
+    joints[top32 == 0] = 0
+    return joints, top32
+
+
+def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Unit area-weighted vertex normals [V, 3] float32 of the mesh ``vertices`` [V, 3], ``faces`` [F, 3].
+
+    A vertex whose normal is undefined (used by no face, or whose faces cancel out) gets +Z: glTF requires
+    every normal to be unit length.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    corners = vertices[faces]
+    face_normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals = np.stack([np.bincount(faces.ravel(), weights=np.repeat(face_normals[:, c], 3),
+                                    minlength=len(vertices)) for c in range(3)], axis=1)
+    length = np.linalg.norm(normals, axis=1)
+    defined = np.isfinite(length) & (length > 0)
+    normals[defined] /= length[defined, None]
+    normals[~defined] = (0.0, 0.0, 1.0)
+    return normals.astype(np.float32)
+
+
+def _document(rig: Rig) -> tuple[GLTF2, bytes]:
+    """The glTF document for ``rig`` and its one binary buffer (referenced as buffer 0, no uri yet)."""
+    check_rig(rig)
+    J = len(rig.names)
+    parents = np.asarray(rig.parents, dtype=np.int64)
+    joints = np.asarray(rig.joints, dtype=np.float64)
+    vertices = np.asarray(rig.vertices, dtype=np.float64)
+    faces = np.asarray(rig.faces, dtype=np.int64)
+
+    influences, influence_weights = top4_influences(rig.weights)
+    joint_dtype = np.uint8 if J <= 256 else np.uint16
+    ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
+    ibm[:, :3, 3] = -joints
+    positions = vertices.astype(np.float32)
+
+    blob = bytearray()
+    views: list[BufferView] = []
+    accessors: list[Accessor] = []
+
+    def add(array: np.ndarray, component: int, kind: str, target: int | None, **extra) -> int:
+        # Every array here is a whole number of 4-byte words, so each view starts 4-aligned as glTF wants.
+        data = np.ascontiguousarray(array).astype(array.dtype.newbyteorder("<")).tobytes()
+        views.append(BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data), target=target))
+        blob.extend(data)
+        accessors.append(Accessor(bufferView=len(views) - 1, componentType=component, count=len(array),
+                                  type=kind, **extra))
+        return len(accessors) - 1
+
+    position = add(positions, pygltflib.FLOAT, "VEC3", pygltflib.ARRAY_BUFFER,
+                   min=[float(x) for x in positions.min(axis=0)], max=[float(x) for x in positions.max(axis=0)])
+    normal = add(vertex_normals(vertices, faces), pygltflib.FLOAT, "VEC3", pygltflib.ARRAY_BUFFER)
+    indices = add(faces.astype(np.uint32).reshape(-1), pygltflib.UNSIGNED_INT, "SCALAR",
+                  pygltflib.ELEMENT_ARRAY_BUFFER)
+    joint_slots = add(influences.astype(joint_dtype),
+                      pygltflib.UNSIGNED_BYTE if joint_dtype == np.uint8 else pygltflib.UNSIGNED_SHORT, "VEC4",
+                      pygltflib.ARRAY_BUFFER)
+    weight_slots = add(influence_weights, pygltflib.FLOAT, "VEC4", pygltflib.ARRAY_BUFFER)
+    # glTF matrices are column-major: store each transpose row by row.
+    inverse_bind = add(ibm.transpose(0, 2, 1).reshape(J, 16), pygltflib.FLOAT, "MAT4", None)
+
+    nodes = []
+    for j, name in enumerate(rig.names):
+        offset = joints[j] - joints[parents[j]] if parents[j] >= 0 else joints[j]
+        nodes.append(Node(name=str(name), translation=[float(x) for x in offset],
+                          children=[int(c) for c in np.flatnonzero(parents == j)]))
+    nodes.append(Node(name="mesh", mesh=0, skin=0))
+    roots = [int(r) for r in np.flatnonzero(parents < 0)]
+
+    primitive = Primitive(attributes=Attributes(POSITION=position, NORMAL=normal, JOINTS_0=joint_slots,
+                                                WEIGHTS_0=weight_slots),
+                          indices=indices, mode=pygltflib.TRIANGLES)
+    doc = GLTF2(
+        asset=Asset(version="2.0", generator=f"autorig {__version__}"),
+        scene=0,
+        scenes=[Scene(nodes=roots + [J])],
+        nodes=nodes,
+        meshes=[Mesh(name="mesh", primitives=[primitive])],
+        skins=[Skin(name=rig.template or "skin", inverseBindMatrices=inverse_bind, joints=list(range(J)),
+                    skeleton=roots[0] if len(roots) == 1 else None)],
+        accessors=accessors,
+        bufferViews=views,
+        buffers=[Buffer(byteLength=len(blob))],
+    )
+    return doc, bytes(blob)
+
+
+def read_glb(path: str | os.PathLike) -> Rig:
+    """Read the skinned mesh of a ``.glb`` or ``.gltf`` file as a :class:`Rig` (raises ``InputError``).
+
+    Reads autorig's own output back exactly (up to float32), and other skinned glTF too: node hierarchies
+    with TRS or matrix transforms, several primitives, any number of ``JOINTS_n``/``WEIGHTS_n`` sets,
+    normalized integer weights, strided and sparse accessors, external or embedded buffers.
+
+    The first skin used by a mesh node is read; every triangle primitive of every mesh node using that skin
+    is gathered into one mesh (primitives sharing their vertex data share their vertices). Vertices are
+    in the skinned mesh's own (bind) space; joint positions are in that same space: taken from the inverse
+    bind matrices (the joint's bind-pose origin), or from the nodes' world transforms when the skin has
+    none. Joints are reordered, if needed, so parents come before children; a joint's parent is its nearest
+    ancestor node that is also a joint of the skin. Weight rows are rescaled to sum to 1.
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise InputError(f"cannot read {path}: {e.strerror or e}") from None
+    try:
+        return _read(path, data)
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
+            OSError) as e:
+        raise InputError(f"cannot read {path} as glTF: {e}") from None
+
+
+def _read(path: Path, data: bytes) -> Rig:
+    if data[:4] == b"glTF":
+        doc = GLTF2.load_from_bytes(data)
+    else:
+        doc = GLTF2.from_json(data.decode("utf-8"), infer_missing=True)
+    if doc is None:
+        raise ValueError("no JSON chunk")
+    buffers = [_buffer_data(doc, b, path) for b in doc.buffers]
+    nodes = doc.nodes or []
+
+    skinned = [i for i, n in enumerate(nodes) if n.mesh is not None and n.skin is not None]
+    if not skinned:
+        raise InputError(f"{path} has no skinned mesh")
+    skin_index = nodes[skinned[0]].skin
+    skin = doc.skins[skin_index]
+    skin_joints = list(skin.joints)
+    J = len(skin_joints)
+
+    node_parent = np.full(len(nodes), -1)
+    for i, n in enumerate(nodes):
+        for c in n.children or []:
+            node_parent[c] = i
+    world = _world_matrices(nodes, node_parent)  # also rejects cyclic hierarchies before the walks below
+    if skin.inverseBindMatrices is not None:
+        ibm = _read_accessor(doc, buffers, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
+        positions = np.linalg.inv(ibm)[:, :3, 3]
+    else:
+        positions = world[skin_joints][:, :3, 3]
+
+    vertices, faces, weights = _gather_meshes(doc, buffers, [nodes[i] for i in skinned
+                                                               if nodes[i].skin == skin_index], J)
+
+    as_joint = {node: j for j, node in enumerate(skin_joints)}
+    parents = np.full(J, -1)
+    for j, node in enumerate(skin_joints):
+        up = node_parent[node]
+        while up >= 0 and up not in as_joint:
+            up = node_parent[up]
+        parents[j] = as_joint.get(up, -1)
+    order = _parents_first(parents)
+    new_index = np.empty(J, dtype=np.int64)
+    new_index[order] = np.arange(J)
+    parents = np.array([new_index[parents[j]] if parents[j] >= 0 else -1 for j in order], dtype=np.int64)
+
+    total = weights.sum(axis=1, keepdims=True)
+    weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
+    names = [nodes[skin_joints[j]].name or f"joint_{j}" for j in order]
+    return Rig(names=names, parents=parents, joints=positions[order], weights=weights[:, order],
+               vertices=vertices, faces=faces, template=skin.name or "")
+
+
+def _buffer_data(doc: GLTF2, buffer: Buffer, path: Path) -> bytes:
+    if buffer.uri is None:
+        blob = doc.binary_blob()
+        if blob is None:
+            raise ValueError("a buffer has no uri and there is no GLB binary chunk")
+        return bytes(blob)
+    if buffer.uri.startswith("data:"):
+        return base64.b64decode(buffer.uri.split(",", 1)[1])
+    return (path.parent / unquote(buffer.uri)).read_bytes()
+
+
+def _read_accessor(doc: GLTF2, buffers: list[bytes], index: int) -> np.ndarray:
+    """Accessor ``index`` as a [count, components] array: float64 if float or normalized, else int64."""
+    accessor = doc.accessors[index]
+    dtype = np.dtype(_COMPONENT_DTYPES[accessor.componentType]).newbyteorder("<")
+    width = _TYPE_SIZES[accessor.type]
+    if accessor.bufferView is None:
+        values = np.zeros((accessor.count, width), dtype=dtype)
+    else:
+        values = _view_array(doc, buffers, accessor.bufferView, accessor.byteOffset or 0, dtype,
+                             accessor.count, width)
+    if accessor.sparse is not None:
+        sparse = accessor.sparse
+        where = _view_array(doc, buffers, sparse.indices.bufferView, sparse.indices.byteOffset or 0,
+                            np.dtype(_COMPONENT_DTYPES[sparse.indices.componentType]).newbyteorder("<"),
+                            sparse.count, 1)[:, 0]
+        values[where.astype(np.int64)] = _view_array(doc, buffers, sparse.values.bufferView,
+                                                     sparse.values.byteOffset or 0, dtype, sparse.count, width)
+    if dtype.kind == "f":
+        return values.astype(np.float64)
+    if accessor.normalized:
+        # glTF's dequantisation: c / max for unsigned, max(c / max, -1) for signed components.
+        return np.maximum(values / np.iinfo(dtype).max, -1.0)
+    return values.astype(np.int64)
+
+
+def _view_array(doc: GLTF2, buffers: list[bytes], view_index: int, offset: int, dtype: np.dtype, count: int,
+                width: int) -> np.ndarray:
+    view = doc.bufferViews[view_index]
+    stride = view.byteStride or dtype.itemsize * width
+    start = (view.byteOffset or 0) + offset
+    if count and start + (count - 1) * stride + dtype.itemsize * width > (view.byteOffset or 0) + view.byteLength:
+        raise ValueError(f"an accessor reads past the end of buffer view {view_index}")
+    return np.ndarray((count, width), dtype=dtype, buffer=buffers[view.buffer], offset=start,
+                      strides=(stride, dtype.itemsize)).copy()
+
+
+def _local_matrix(node: Node) -> np.ndarray:
+    if node.matrix is not None:
+        return np.asarray(node.matrix, dtype=np.float64).reshape(4, 4).T
+    m = np.eye(4)
+    if node.rotation is not None:
+        x, y, z, w = node.rotation
+        m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    if node.scale is not None:
+        m[:3, :3] *= np.asarray(node.scale, dtype=np.float64)
+    if node.translation is not None:
+        m[:3, 3] = node.translation
+    return m
+
+
+def _world_matrices(nodes: list[Node], node_parent: np.ndarray) -> np.ndarray:
+    """World transform [N, 4, 4] of every node, given each node's parent index (-1 at a root).
+
+    Raises ``ValueError`` if the hierarchy has a cycle, which also keeps later walks up it finite.
+    """
+    world = np.zeros((len(nodes), 4, 4))
+    done = np.zeros(len(nodes), dtype=bool)
+    for start in range(len(nodes)):
+        chain, n = [], start
+        while n >= 0 and not done[n]:
+            if len(chain) > len(nodes):
+                raise ValueError("the node hierarchy has a cycle")
+            chain.append(n)
+            n = node_parent[n]
+        for n in reversed(chain):
+            parent = node_parent[n]
+            world[n] = _local_matrix(nodes[n]) if parent < 0 else world[parent] @ _local_matrix(nodes[n])
+            done[n] = True
+    return world
+
+
+def _gather_meshes(doc: GLTF2, buffers: list[bytes], mesh_nodes: list[Node], J: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """vertices [V, 3], faces [F, 3] and dense weights [V, J] of all triangle primitives of ``mesh_nodes``."""
+    vertices, faces, weights = [], [], []
+    first_vertex: dict[tuple, int] = {}
+    count = 0
+    for node in mesh_nodes:
+        for primitive in doc.meshes[node.mesh].primitives:
+            if primitive.mode not in (None, pygltflib.TRIANGLES):
+                continue
+            attributes = {k: v for k, v in vars(primitive.attributes).items() if v is not None}
+            sets = sorted(k for k in attributes if k.startswith("JOINTS_"))
+            key = (attributes["POSITION"],) + tuple((attributes[k], attributes.get("WEIGHTS_" + k[7:]))
+                                                    for k in sets)
+            if key not in first_vertex:
+                first_vertex[key] = count
+                position = _read_accessor(doc, buffers, attributes["POSITION"])
+                dense = np.zeros((len(position), J))
+                for k in sets:
+                    slots = _read_accessor(doc, buffers, attributes[k])
+                    amounts = _read_accessor(doc, buffers, attributes["WEIGHTS_" + k[7:]])
+                    rows = np.repeat(np.arange(len(position)), slots.shape[1])
+                    np.add.at(dense, (rows, slots.ravel()), amounts.ravel())
+                vertices.append(position)
+                weights.append(dense)
+                count += len(position)
+            n = doc.accessors[attributes["POSITION"]].count
+            if primitive.indices is None:
+                corners = np.arange(n - n % 3)
+            else:
+                corners = _read_accessor(doc, buffers, primitive.indices).ravel()
+            if corners.size and (corners.min() < 0 or corners.max() >= n):
+                raise ValueError("a primitive's indices point past its vertices")
+            faces.append(corners[: corners.size - corners.size % 3].reshape(-1, 3) + first_vertex[key])
+    if not vertices:
+        raise ValueError("the skinned mesh has no triangles")
+    return (np.concatenate(vertices), np.concatenate(faces).astype(np.int64), np.concatenate(weights))
+
+
+def _parents_first(parents: np.ndarray) -> list[int]:
+    """An order of the joints in which every parent precedes its children, as close to 0..J-1 as can be."""
+    order: list[int] = []
+    placed = np.zeros(len(parents), dtype=bool)
+    for j in range(len(parents)):
+        chain = []
+        while j >= 0 and not placed[j]:
+            chain.append(j)
+            placed[j] = True
+            j = parents[j]
+        order.extend(reversed(chain))
+    return order
