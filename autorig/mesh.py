@@ -1,0 +1,503 @@
+"""Mesh input: read a file, check that it is a usable surface, and put it in autorig's canonical frame.
+
+The canonical frame, shared by every stage (and by the templates, see ``template.py``):
+
+* +y is up, +z is the way the character faces, +x is the character's own left (left = up x front, so the
+  frame is right-handed and the change of frame is a proper rotation);
+* the feet (the lowest point along up) are at y = 0 and the bounding box is centred on x and z;
+* the height (the extent along up) is 1.
+
+``load_mesh`` keeps the file's vertices exactly, in file order, because the rig's skin weights are written per
+input vertex. ``prepare`` adds the canonical frame and a cleaned working copy for the geometric stages.
+
+Every problem with the input raises ``InputError`` with one line naming the file (or "mesh") and the problem.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import AutorigError, InputError
+
+FORMATS = {".obj": "OBJ", ".off": "OFF", ".ply": "PLY", ".stl": "STL", ".glb": "glTF", ".gltf": "glTF"}
+
+# A mesh whose points all lie within this fraction of its size from one plane is a 2D cut-out.
+FLAT_TOLERANCE = 1e-6
+# Triangles smaller than this (in units of size squared) carry no usable geometry: their angles, normals and
+# cotangent weights are numerically meaningless.
+AREA_TOLERANCE = 1e-12
+
+
+class AxisError(AutorigError, ValueError):
+    """A bad ``up``/``front`` axis spec, or up parallel to front. Exit code 2, like a command-line usage error."""
+    exit_code = 2
+
+
+# ----------------------------------------------------------------------------------------------------- loading
+
+def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a triangle mesh from an OBJ, OFF, PLY, STL, glTF or GLB file.
+
+    Returns ``(vertices, faces)``:
+
+    vertices  [V, 3] float64, the file's vertices in file order. Nothing is merged, reordered or dropped
+              (unreferenced vertices are kept); STL has no shared vertices, so there V = 3F, the triangle corners
+              in file order.
+    faces     [F, 3] int64 triangles indexing ``vertices``. Polygons are fan-triangulated: (a, b, c, d) becomes
+              (a, b, c), (a, c, d). OBJ and OFF keep the file's face order; trimesh's PLY reader groups
+              triangulated polygons by their number of sides.
+
+    A glTF scene is flattened: each mesh node's vertices are moved by the node's world transform, and the nodes
+    are concatenated in order of their (unique) node names. Point clouds and lines in a scene are ignored.
+    Materials and textures are never read.
+
+    Raises ``InputError`` (one line naming the file) for a missing or unreadable file, an unknown format,
+    content that is not a mesh, and for meshes that cannot be rigged (see ``check_mesh``).
+    """
+    path = check_mesh_path(path)
+    suffix = path.suffix.lower()
+    if suffix in (".obj", ".off"):
+        try:
+            data = path.read_bytes()
+        except OSError as e:
+            raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+        text = _as_text(data, path, FORMATS[suffix])
+        vertices, faces = _parse_obj(text, path) if suffix == ".obj" else _parse_off(text, path)
+    else:
+        vertices, faces = _load_with_trimesh(path, suffix)
+    return check_mesh(vertices, faces, name=str(path))
+
+
+def check_mesh_path(path: str | Path) -> Path:
+    """``path`` as a Path, if it names an existing file in a format ``load_mesh`` reads; else ``InputError``.
+    Cheap (no reading), so a command line can reject a mistyped path before any slow work."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, not a mesh file")
+    if path.suffix.lower() not in FORMATS:
+        known = ", ".join(sorted(FORMATS))
+        raise InputError(f"{path}: unknown mesh format {path.suffix or '(no extension)'!r}; autorig reads {known}")
+    return path
+
+
+def _as_text(data: bytes, path: Path, fmt: str) -> str:
+    # Text formats never contain NUL bytes; images, archives and binary meshes almost always do.
+    if b"\0" in data[:65536]:
+        raise InputError(f"{path}: binary data, not a text {fmt} file")
+    # latin-1 maps every byte, so odd encodings in comments or names never stop us reading the numbers.
+    return data.decode("latin-1")
+
+
+def _bad_line(path: Path, lineno: int, problem: str) -> InputError:
+    return InputError(f"{path}: line {lineno}: {problem}")
+
+
+_OBJ_KEYWORDS = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mg", "usemtl", "mtllib"}
+
+
+def _parse_obj(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Parse OBJ ``v`` and ``f`` statements ourselves: trimesh's OBJ reader splits vertices at UV seams, drops
+    vertices past the last referenced one when there are texture coordinates, splits the file into one geometry
+    per material (each with its own copy of the vertices), and resolves negative (relative) indices against the
+    end of the file instead of the current position."""
+    text = text.replace("\r\n", "\n").replace("\r", "\n").replace("\\\n", " ").replace("\t", " ")
+    lines = text.split("\n")
+    if "\n " in text or text.startswith(" "):
+        lines = [line.lstrip() for line in lines]
+    fast = _parse_obj_fast(lines)
+    return fast if fast is not None else _parse_obj_lines(lines, path)
+
+
+def _parse_obj_fast(lines: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vectorised parse of the usual OBJ: numeric 'v' lines and 'f' lines with positive indices.
+
+    Returns None when anything is unusual (no faces, relative indices, a malformed line); the line-by-line
+    parser then handles the file and reports problems with their line numbers.
+    """
+    v_lines = [line[2:] for line in lines if line[:2] == "v "]
+    f_lines = [line[2:] for line in lines if line[:2] == "f "]
+    if not v_lines or not f_lines:
+        return None
+    faces_text = "\n".join(f_lines)
+    if "#" in faces_text:
+        return None
+    if "/" in faces_text:
+        faces_text = re.sub(r"/\S*", "", faces_text)  # keep the vertex index of each v/vt/vn corner
+    face_lines = faces_text.split("\n")
+    try:
+        vertices = np.loadtxt(v_lines, usecols=(0, 1, 2), ndmin=2, comments="#")
+        try:  # every face with the same number of corners: one C-speed pass
+            table = np.loadtxt(face_lines, dtype=np.int64, ndmin=2)
+            index, counts = table.reshape(-1), np.full(len(table), table.shape[1])
+        except ValueError:
+            corners = [line.split() for line in face_lines]
+            counts = np.fromiter(map(len, corners), dtype=np.int64, count=len(corners))
+            index = np.array([c for face in corners for c in face], dtype=np.int64)
+    except ValueError:
+        return None
+    if counts.min() < 3 or index.min() < 1:
+        return None
+    return vertices, _fan(index - 1, counts)
+
+
+def _fan(index: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Fan-triangulate polygons: ``index`` [sum(counts)] is the polygons' corners one after another, ``counts``
+    [P] the corners of each. Returns [sum(counts - 2), 3]: polygon (a, b, c, d) -> (a, b, c), (a, c, d)."""
+    triangles = counts - 2
+    first = np.repeat(np.cumsum(counts) - counts, triangles)  # [T] the polygon's first corner
+    k = np.arange(len(first)) - np.repeat(np.cumsum(triangles) - triangles, triangles)  # [T] 0, 1, .. per polygon
+    return np.stack([index[first], index[first + k + 1], index[first + k + 2]], axis=1)
+
+
+def _parse_obj_lines(lines: list[str], path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Line-by-line OBJ parse: slower, but handles relative indices and names the line of any problem."""
+    vertices: list[tuple[float, float, float]] = []
+    faces: list[tuple[int, int, int]] = []
+    recognised = content = False
+    for lineno, line in enumerate(lines, 1):
+        parts = line.partition("#")[0].split()
+        if not parts:
+            continue
+        key = parts[0]
+        if key == "v":
+            try:
+                vertices.append((float(parts[1]), float(parts[2]), float(parts[3])))
+            except (IndexError, ValueError):
+                raise _bad_line(path, lineno, f"a vertex needs three numbers, got {line.strip()[:60]!r}") from None
+        elif key == "f":
+            try:
+                corners = [int(c.split("/", 1)[0]) for c in parts[1:]]
+            except ValueError:
+                raise _bad_line(path, lineno, f"malformed face {line.strip()[:60]!r}") from None
+            if len(corners) < 3:
+                raise _bad_line(path, lineno, f"a face needs at least three vertices, got {len(corners)}")
+            if 0 in corners:
+                raise _bad_line(path, lineno, "vertex index 0 (OBJ indices start at 1)")
+            # Negative indices count back from the most recent vertex; an index still negative after this
+            # points before the first vertex, and check_mesh reports it as out of range.
+            n = len(vertices)
+            corners = [c - 1 if c > 0 else n + c for c in corners]
+            faces.extend((corners[0], corners[k], corners[k + 1]) for k in range(1, len(corners) - 1))
+        content = True
+        recognised = recognised or key in _OBJ_KEYWORDS
+    if content and not recognised:
+        raise InputError(f"{path}: not an OBJ file (no OBJ statements such as 'v' or 'f' found)")
+    return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
+            np.array(faces, dtype=np.int64).reshape(-1, 3))
+
+
+def _parse_off(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Parse OFF (and its COFF/NOFF/STOFF variants, whose extra per-vertex columns we ignore) ourselves:
+    trimesh's OFF reader fails on files that mix triangles with other polygons."""
+    lines = [(n, l.split("#", 1)[0].split()) for n, l in enumerate(text.splitlines(), 1)]
+    lines = [(n, tokens) for n, tokens in lines if tokens]
+    if not lines:
+        raise InputError(f"{path}: empty file (no vertices)")
+    keyword = lines[0][1][0]
+    if not keyword.upper().endswith("OFF"):
+        raise InputError(f"{path}: not an OFF file (it must start with 'OFF')")
+    if not re.fullmatch(r"(ST)?C?N?OFF", keyword.upper()):
+        raise InputError(f"{path}: {keyword} files are not supported (only 3D OFF, COFF, NOFF, STOFF)")
+    # The counts may share the keyword's line ("OFF 8 6 12") or follow it.
+    if len(lines[0][1]) > 1:
+        (counts_line, counts), body = (lines[0][0], lines[0][1][1:]), lines[1:]
+    else:
+        (counts_line, counts), body = (lines[1] if len(lines) > 1 else (1, [])), lines[2:]
+    try:
+        n_vertices, n_faces = int(counts[0]), int(counts[1])
+    except (IndexError, ValueError):
+        raise _bad_line(path, counts_line, "expected the vertex and face counts") from None
+    if n_vertices < 0 or n_faces < 0 or len(body) < n_vertices + n_faces:
+        raise InputError(f"{path}: truncated: the header promises {n_vertices} vertices and {n_faces} faces "
+                         f"but the file has only {len(body)} data lines")
+    vertices = []
+    for n, tokens in body[:n_vertices]:
+        try:
+            vertices.append((float(tokens[0]), float(tokens[1]), float(tokens[2])))
+        except (IndexError, ValueError):
+            raise _bad_line(path, n, "a vertex needs three numbers") from None
+    faces = []
+    for n, tokens in body[n_vertices:n_vertices + n_faces]:
+        try:
+            k = int(tokens[0])
+            corners = [int(c) for c in tokens[1:1 + k]]
+        except ValueError:
+            raise _bad_line(path, n, "malformed face") from None
+        if k < 3 or len(corners) < k:
+            raise _bad_line(path, n, "a face needs a vertex count of at least 3 and that many indices")
+        faces.extend((corners[0], corners[i], corners[i + 1]) for i in range(1, k - 1))
+    return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
+            np.array(faces, dtype=np.int64).reshape(-1, 3))
+
+
+def _load_with_trimesh(path: Path, suffix: str) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    fmt = FORMATS[suffix]
+    try:
+        # process=False keeps the file's vertices as they are (no merging, no reordering); materials would
+        # only cost time (and decode images) for data we never use.
+        scene = trimesh.load_scene(str(path), file_type=suffix[1:], process=False, skip_materials=True)
+    except Exception as e:  # trimesh's readers raise anything from KeyError to struct.error on bad data
+        message = " ".join(str(e).split())[:150] or type(e).__name__
+        raise InputError(f"{path}: cannot read as {fmt} ({message})") from None
+    vertex_blocks, face_blocks, offset, points_only = [], [], 0, False
+    for node in sorted(scene.graph.nodes_geometry):
+        transform, geometry_name = scene.graph[node]
+        geometry = scene.geometry[geometry_name]
+        if not isinstance(geometry, trimesh.Trimesh):
+            points_only = points_only or isinstance(geometry, trimesh.PointCloud)
+            continue
+        vertices = np.asarray(geometry.vertices, dtype=np.float64)
+        vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
+        vertex_blocks.append(vertices)
+        face_blocks.append(np.asarray(geometry.faces, dtype=np.int64).reshape(-1, 3) + offset)
+        offset += len(vertices)
+    if not vertex_blocks and points_only:
+        raise InputError(f"{path}: a point cloud (no faces); autorig needs a surface mesh")
+    if not vertex_blocks:
+        raise InputError(f"{path}: no mesh found (empty, or not a valid {fmt} file)")
+    return np.concatenate(vertex_blocks), np.concatenate(face_blocks)
+
+
+# -------------------------------------------------------------------------------------------------- validation
+
+def check_mesh(vertices, faces, name: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    """Check that ``vertices`` [V, 3] and ``faces`` [F, 3] describe a surface that can be rigged.
+
+    Returns the same data as a float64 [V, 3] and an int64 [F, 3] array (copies; the arguments are never
+    modified). Raises ``InputError`` with one line starting with ``name`` for: wrong shapes or types, no
+    vertices, no faces (a point cloud), NaN or infinite coordinates, face indices out of range, fewer than four
+    distinct vertices in the triangles, zero size, only zero-area triangles, and flat (2D) meshes.
+    The geometric checks look only at the vertices that the triangles use: stray vertices do not count.
+    """
+    def bad(problem: str) -> InputError:
+        return InputError(f"{name}: {problem}")
+
+    try:
+        V = np.array(vertices, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise bad("vertices must be an [V, 3] array of numbers") from None
+    if V.size == 0:
+        raise bad("contains no vertices (empty mesh)")
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise bad(f"vertices must be an [V, 3] array of numbers, got shape {V.shape}")
+    try:
+        F = np.array(faces)
+    except (TypeError, ValueError, OverflowError):
+        F = np.array(None)
+    if F.size == 0:
+        raise bad(f"has {len(V)} vertices but no faces: a point cloud, not a surface mesh")
+    if F.dtype.kind == "f" and np.all(np.isfinite(F)) and np.all(F == np.round(F)) and np.all(abs(F) < 2**62):
+        F = F.astype(np.int64)  # e.g. indices that went through JSON or a float array
+    if F.dtype.kind not in "iu" or (F.dtype.kind == "u" and F.size and F.max() > 2**62):
+        raise bad("faces must be an [F, 3] array of integer vertex indices")
+    F = F.astype(np.int64)
+    if F.ndim != 2 or F.shape[1] != 3:
+        raise bad(f"faces must be an [F, 3] array of vertex indices (triangles), got shape {F.shape}")
+
+    finite = np.isfinite(V).all(axis=1)
+    if not finite.all():
+        first = int(np.argmin(finite))
+        raise bad(f"{int((~finite).sum())} vertices have NaN or infinite coordinates (the first is vertex {first})")
+    outside = (F < 0) | (F >= len(V))
+    if outside.any():
+        face = int(np.argmax(outside.any(axis=1)))
+        raise bad(f"face indices out of range: face {face} uses vertex {int(F[outside][0])}, "
+                  f"but there are only {len(V)} vertices")
+    _check_solid(V, F, bad)
+    return V, F
+
+
+def _check_solid(V: np.ndarray, F: np.ndarray, bad) -> None:
+    """Raise ``bad(...)`` unless the triangles F [F, 3] over V [V, 3] span a volume: at least four vertices,
+    non-zero size, some triangles with area, and not all within FLAT_TOLERANCE x size of one plane."""
+    used, renumber = _used_vertices(len(V), F)
+    if len(used) < 4:
+        raise bad(f"only {len(used)} distinct vertices in its {len(F)} triangle(s); a mesh needs at least 4 "
+                  f"vertices around a volume")
+    P = V[used]
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        size = float(np.max(hi - lo))
+    if not np.isfinite(size):
+        raise bad("coordinates too large to work with")
+    if size == 0:
+        raise bad("zero size: all its vertices are at one point")
+    # Work in units of the mesh size from here on, so the tolerances are relative and nothing overflows.
+    Q = (P - (lo / 2 + hi / 2)) / size
+    local = renumber[F]
+    T = Q[local]
+    area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    good = area > AREA_TOLERANCE
+    if not good.any():
+        raise bad("every triangle has zero area")
+    R = Q[_used_vertices(len(Q), local[good])[0]]
+    centred = R - R.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    spread = np.ptp(centred @ axes.T, axis=0)  # extent along the principal axes, largest first
+    if spread[1] <= FLAT_TOLERANCE:
+        raise bad("all its vertices lie on one line: autorig needs a 3D surface that encloses a volume")
+    if spread[2] <= FLAT_TOLERANCE:
+        raise bad("the mesh is flat (all its vertices lie in one plane, like a 2D cut-out); autorig needs a "
+                  "3D surface that encloses a volume")
+
+
+def _used_vertices(n: int, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(used [U] ascending indices of the vertices that F uses, renumber [n] their position in ``used``, -1 for
+    the others). A mask instead of np.unique: linear time, which matters on meshes with 100k+ faces."""
+    mask = np.zeros(n, dtype=bool)
+    mask[F.reshape(-1)] = True
+    used = np.flatnonzero(mask)
+    renumber = np.full(n, -1, dtype=np.int64)
+    renumber[used] = np.arange(len(used))
+    return used, renumber
+
+
+def _first_occurrences(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group identical rows of ``rows`` [N, K]. Returns (first [G] ascending index of the first row of each
+    group, group [N] the group of each row, groups numbered in order of their first row)."""
+    order = np.lexsort(rows.T[::-1])  # stable, so each run of equal rows lists its first row first
+    sorted_rows = rows[order]
+    starts = np.ones(len(rows), dtype=bool)
+    starts[1:] = np.any(sorted_rows[1:] != sorted_rows[:-1], axis=1)
+    run = np.cumsum(starts) - 1
+    first_of_run = order[starts]
+    rank = np.empty(len(first_of_run), dtype=np.int64)
+    rank[np.argsort(first_of_run)] = np.arange(len(first_of_run))
+    group = np.empty(len(rows), dtype=np.int64)
+    group[order] = rank[run]
+    return np.sort(first_of_run), group
+
+
+# ----------------------------------------------------------------------------------------------- canonical frame
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def axis_vector(spec: str) -> np.ndarray:
+    """Unit vector [3] for an axis spec: 'x', 'y', 'z', optionally signed ('-x', '+y'). Raises ``AxisError``."""
+    text = str(spec).strip().lower()
+    sign = -1.0 if text.startswith("-") else 1.0
+    letter = text[1:] if text[:1] in "+-" else text
+    if letter not in _AXES or not text:
+        raise AxisError(f"bad axis {spec!r}: use x, y, z, -x, -y or -z")
+    vector = np.zeros(3)
+    vector[_AXES[letter]] = sign
+    return vector
+
+
+def frame_rotation(up: str = "y", front: str = "z") -> np.ndarray:
+    """Rotation [3, 3] whose rows are the input-space directions of canonical x (left), y (up) and z (front)."""
+    u, f = axis_vector(up), axis_vector(front)
+    if abs(float(u @ f)) > 0.5:
+        raise AxisError(f"up {up!r} and front {front!r} are parallel; the front must be perpendicular to up")
+    return np.array([np.cross(u, f), u, f])
+
+
+@dataclass
+class PreparedMesh:
+    """A checked mesh in the canonical frame, plus a cleaned working copy.
+
+    vertices       [V, 3] float64 all input vertices, in input order, in the canonical frame
+    faces          [F, 3] int64 the input triangles (indices into ``vertices``)
+    work_vertices  [W, 3] float64 canonical positions of the working mesh: coincident input vertices merged,
+                   vertices no remaining triangle uses dropped; ordered by the first input vertex of each
+    work_faces     [G, 3] int64 working triangles (indices into ``work_vertices``): zero-area triangles and
+                   repeated triangles (same three vertices, either orientation) dropped, input order otherwise
+    work_index     [V] int64 for each input vertex, the working vertex at its position, or -1 if no working
+                   triangle touches that position (unreferenced or only in dropped triangles)
+    rotation       [3, 3] rows are the input-space directions of canonical x (left), y (up), z (front)
+    offset         [3] the input-space point that maps to the canonical origin (centre of the feet)
+    scale          canonical units per input unit (1 / height)
+    up, front      the axis specs used
+    height         the mesh's extent along up, in input units
+
+    canonical = scale * rotation @ (p - offset)
+    """
+    vertices: np.ndarray
+    faces: np.ndarray
+    work_vertices: np.ndarray
+    work_faces: np.ndarray
+    work_index: np.ndarray
+    rotation: np.ndarray
+    offset: np.ndarray
+    scale: float
+    up: str
+    front: str
+    height: float
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """[4, 4] homogeneous transform from input to canonical coordinates."""
+        M = np.eye(4)
+        M[:3, :3] = self.scale * self.rotation
+        M[:3, 3] = -self.scale * self.rotation @ self.offset
+        return M
+
+    def to_canonical(self, points) -> np.ndarray:
+        """Input-space points [N, 3] (or one point [3]) -> canonical [N, 3] (or [3])."""
+        return self.scale * ((np.asarray(points, dtype=np.float64) - self.offset) @ self.rotation.T)
+
+    def from_canonical(self, points) -> np.ndarray:
+        """Canonical points [N, 3] (or one point [3]) -> input space [N, 3] (or [3])."""
+        return (np.asarray(points, dtype=np.float64) / self.scale) @ self.rotation + self.offset
+
+
+def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh") -> PreparedMesh:
+    """Check a mesh and bring it into the canonical frame (see the module docstring).
+
+    vertices  [V, 3] input vertex positions
+    faces     [F, 3] input triangles
+    up, front the input-space axes ('x', '-z', ...) that point up and the way the character faces
+    name      how error messages refer to the mesh (e.g. its file name)
+
+    The feet, centring and height come from the bounding box of the vertices the triangles use, so stray
+    unreferenced vertices do not move the frame. Raises ``InputError`` (see ``check_mesh``) or ``AxisError``.
+    """
+    rotation = frame_rotation(up, front)
+    V, F = check_mesh(vertices, faces, name)
+    used, _ = _used_vertices(len(V), F)
+    rotated = V[used] @ rotation.T  # exact: the rotation only permutes and negates coordinates
+    lo, hi = rotated.min(axis=0), rotated.max(axis=0)
+    height = float(hi[1] - lo[1])
+    centre = np.array([lo[0] / 2 + hi[0] / 2, lo[1], lo[2] / 2 + hi[2] / 2])
+    offset = rotation.T @ centre
+    scale = 1.0 / height
+    with np.errstate(over="ignore", invalid="ignore"):
+        canonical = scale * ((V - offset) @ rotation.T)
+    if not np.isfinite(scale) or not np.isfinite(canonical).all():
+        raise InputError(f"{name}: vertex coordinates span too large a range to work with")
+
+    work_vertices, work_faces, work_index = _working_copy(V, F, canonical)
+    _check_solid(work_vertices, work_faces,
+                 lambda problem: InputError(f"{name}: after merging coincident vertices and dropping "
+                                            f"degenerate triangles, {problem}"))
+    # Decimation of very large meshes belongs here: simplify (work_vertices, work_faces) and compose the
+    # vertex map into work_index, so later stages never see more than a bounded number of vertices.
+    return PreparedMesh(vertices=canonical, faces=F, work_vertices=work_vertices, work_faces=work_faces,
+                        work_index=work_index, rotation=rotation, offset=offset, scale=scale,
+                        up=up, front=front, height=height)
+
+
+def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):
+    """The cleaned mesh for discretisation: (work_vertices [W, 3], work_faces [G, 3], work_index [V]).
+
+    Vertices are merged only when their input coordinates are bit-identical (after -0.0 -> 0.0): that is
+    what seams and STL corners produce, and it never joins parts that merely come close.
+    """
+    first, merged = _first_occurrences(V + 0.0)   # merged [V]: merged index of each input vertex
+    positions = canonical[first]                   # [M, 3]
+    G = merged[F]
+    T = positions[G]
+    area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    keep = (G[:, 0] != G[:, 1]) & (G[:, 1] != G[:, 2]) & (G[:, 0] != G[:, 2]) & (area > AREA_TOLERANCE)
+    G = G[keep]
+    G = G[_first_occurrences(np.sort(G, axis=1))[0]]
+    used, renumber = _used_vertices(len(positions), G)
+    return positions[used], renumber[G], renumber[merged]

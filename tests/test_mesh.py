@@ -1,0 +1,467 @@
+"""Mesh input: file formats, vertex order, the canonical frame, the working copy, and every kind of bad input."""
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from autorig.errors import AutorigError, InputError
+from autorig.mesh import AxisError, PreparedMesh, axis_vector, check_mesh, load_mesh, prepare
+
+DATA = Path("/work/shared/data")
+CESIUM = DATA / "rigged/CesiumMan/mesh.obj"
+
+SPECS = ["x", "y", "z", "-x", "-y", "-z"]
+FRAMES = [(u, f) for u, f in itertools.product(SPECS, SPECS) if u.strip("-") != f.strip("-")]
+
+
+def obj_vertex_lines(path: Path) -> np.ndarray:
+    """[V, 3] the ``v`` lines of an OBJ, read independently of autorig."""
+    return np.array([[float(x) for x in line.split()[1:4]]
+                     for line in path.read_text().splitlines() if line.startswith("v ")])
+
+
+def shuffled_sphere(seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """An icosphere with its vertices in a random order, so order-preserving loaders are really tested."""
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    rng = np.random.default_rng(seed)
+    perm = rng.permutation(len(sphere.vertices))
+    inverse = np.argsort(perm)
+    return sphere.vertices[perm] * [1.0, 2.0, 0.5] + [3.0, -1.0, 2.0], inverse[sphere.faces]
+
+
+def tetrahedron() -> tuple[np.ndarray, np.ndarray]:
+    return (np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]),
+            np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]))
+
+
+# ----------------------------------------------------------------------------------------------- the data files
+
+@pytest.mark.skipif(not CESIUM.exists(), reason="shared data not available")
+def test_cesium_man_obj_vertices_are_the_files_v_lines():
+    V, F = load_mesh(CESIUM)
+    assert V.dtype == np.float64 and F.dtype == np.int64
+    np.testing.assert_array_equal(V, obj_vertex_lines(CESIUM))
+    faces = [[int(i) - 1 for i in line.split()[1:]] for line in CESIUM.read_text().splitlines()
+             if line.startswith("f ")]
+    np.testing.assert_array_equal(F, faces)
+
+
+@pytest.mark.skipif(not DATA.exists(), reason="shared data not available")
+@pytest.mark.parametrize("path", sorted(DATA.glob("meshes/*.obj")) + sorted(DATA.glob("rigged/*/mesh.obj")),
+                         ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_shared_meshes_load_with_their_own_vertices(path):
+    if path.name in ("woody.obj", "alligator.obj"):  # 2D cut-outs: every z is 0
+        with pytest.raises(InputError, match="flat"):
+            load_mesh(path)
+        return
+    V, F = load_mesh(path)
+    np.testing.assert_array_equal(V, obj_vertex_lines(path))
+    prepared = prepare(V, F)
+    assert len(prepared.work_faces) > 0 and np.isfinite(prepared.work_vertices).all()
+
+
+# -------------------------------------------------------------------------------------------------- the frame
+
+def test_axis_vector():
+    assert axis_vector("x").tolist() == [1, 0, 0]
+    assert axis_vector("+y").tolist() == [0, 1, 0]
+    assert axis_vector("-z").tolist() == [0, 0, -1]
+    assert axis_vector(" -X ").tolist() == [-1, 0, 0]
+    for bad in ["", "w", "xy", "--x", "+", "1"]:
+        with pytest.raises(AxisError, match="bad axis"):
+            axis_vector(bad)
+
+
+def test_axis_errors_are_value_errors_and_autorig_errors():
+    with pytest.raises(ValueError, match="parallel"):
+        prepare(*tetrahedron(), up="y", front="-y")
+    with pytest.raises(AutorigError):
+        prepare(*tetrahedron(), up="q")
+
+
+def test_default_frame_is_identity_rotation():
+    prepared = prepare(*shuffled_sphere())
+    np.testing.assert_array_equal(prepared.rotation, np.eye(3))
+
+
+@pytest.mark.parametrize("up,front", FRAMES)
+def test_canonical_frame_and_round_trip(up, front):
+    V, F = shuffled_sphere()
+    prepared = prepare(V, F, up=up, front=front)
+    C = prepared.vertices
+    assert np.linalg.det(prepared.rotation) == pytest.approx(1.0)
+    # canonical y is the input's up; z its front; x = up x front (the character's left)
+    np.testing.assert_array_equal(prepared.rotation[1], axis_vector(up))
+    np.testing.assert_array_equal(prepared.rotation[2], axis_vector(front))
+    np.testing.assert_array_equal(prepared.rotation[0], np.cross(axis_vector(up), axis_vector(front)))
+    assert C[:, 1].min() == 0.0
+    assert C[:, 1].max() == pytest.approx(1.0)
+    assert C[:, 0].min() == pytest.approx(-C[:, 0].max())
+    assert C[:, 2].min() == pytest.approx(-C[:, 2].max())
+    assert prepared.height == pytest.approx(np.ptp(V @ axis_vector(up)))
+    np.testing.assert_allclose(prepared.from_canonical(C), V, atol=1e-12)
+    np.testing.assert_allclose(prepared.to_canonical(V), C)
+    homogeneous = np.c_[V, np.ones(len(V))] @ prepared.matrix.T
+    np.testing.assert_allclose(homogeneous[:, :3], C, atol=1e-12)
+    # single points work too
+    np.testing.assert_allclose(prepared.from_canonical(prepared.to_canonical(V[0])), V[0])
+
+
+@pytest.mark.skipif(not CESIUM.exists(), reason="shared data not available")
+def test_cesium_man_front_x_puts_file_plus_z_on_its_right():
+    prepared = prepare(*load_mesh(CESIUM), up="y", front="x")
+    origin = prepared.to_canonical(prepared.offset)
+    np.testing.assert_allclose(origin, 0, atol=1e-12)
+    step = prepared.to_canonical(prepared.offset + [0, 0, 1]) - origin
+    # left = up x front = y x x = -z, so file +z is the character's right: canonical -x
+    assert step[0] < 0 and step[1] == 0 and step[2] == 0
+    np.testing.assert_allclose(prepared.to_canonical(prepared.offset + [1, 0, 0]) - origin,
+                               [0, 0, prepared.scale])
+    assert prepared.vertices[:, 1].min() == 0 and prepared.vertices[:, 1].max() == pytest.approx(1)
+
+
+def test_stray_vertices_do_not_move_the_frame():
+    V, F = tetrahedron()
+    stray = np.vstack([V, [[100.0, -50, 7]]])
+    a, b = prepare(V, F), prepare(stray, F)
+    np.testing.assert_array_equal(a.offset, b.offset)
+    assert a.scale == b.scale
+    assert b.work_index[-1] == -1 and len(b.vertices) == 5
+
+
+def test_prepare_never_modifies_its_arguments():
+    V, F = shuffled_sphere()
+    V0, F0 = V.copy(), F.copy()
+    prepared = prepare(V, F, up="-z", front="x")
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(F, F0)
+    prepared.vertices[:] = 0
+    prepared.faces[:] = 0
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(F, F0)
+
+
+# -------------------------------------------------------------------------------------------- the working copy
+
+def test_working_copy_merges_drops_and_maps_back():
+    V, F = tetrahedron()
+    # STL-style: every triangle with its own corners, plus a stray vertex, a degenerate and a repeated triangle
+    corners = V[F].reshape(-1, 3)
+    split_V = np.vstack([corners, [[5.0, 5, 5]]])
+    split_F = np.vstack([np.arange(12).reshape(4, 3), [[0, 0, 1], [5, 4, 3]]])
+    prepared = prepare(split_V, split_F)
+    assert len(prepared.vertices) == 13 and len(prepared.faces) == 6
+    assert len(prepared.work_vertices) == 4
+    assert len(prepared.work_faces) == 4
+    # same triangles as the shared-vertex tetrahedron, in input order (ordered by first corner: 0, 2, 1, 3)
+    reference = prepare(V, F)
+    np.testing.assert_array_equal(prepared.work_vertices, reference.work_vertices[[0, 2, 1, 3]])
+    np.testing.assert_array_equal(prepared.work_vertices[prepared.work_faces],
+                                  reference.work_vertices[reference.work_faces])
+    mapped = prepared.work_index >= 0
+    assert mapped.sum() == 12 and prepared.work_index[12] == -1
+    np.testing.assert_array_equal(prepared.work_vertices[prepared.work_index[mapped]], prepared.vertices[mapped])
+
+
+def test_working_copy_keeps_input_order():
+    V, F = shuffled_sphere()
+    prepared = prepare(V, F)
+    np.testing.assert_array_equal(prepared.work_index, np.arange(len(V)))
+    np.testing.assert_array_equal(prepared.work_faces, F)
+    np.testing.assert_array_equal(prepared.work_vertices, prepared.vertices)
+
+
+# ------------------------------------------------------------------------------------------------ file formats
+
+@pytest.mark.parametrize("ext", ["obj", "ply", "off", "glb"])
+def test_formats_keep_vertex_order(tmp_path, ext):
+    V, F = shuffled_sphere()
+    path = tmp_path / f"sphere.{ext}"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    loaded_V, loaded_F = load_mesh(path)
+    # PLY and GLB store float32; OBJ and OFF text keeps about 8 significant digits
+    np.testing.assert_allclose(loaded_V, V, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(loaded_F, F)
+
+
+def test_stl_gives_triangle_corners_in_file_order(tmp_path):
+    V, F = shuffled_sphere()
+    path = tmp_path / "sphere.stl"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    loaded_V, loaded_F = load_mesh(path)
+    np.testing.assert_allclose(loaded_V, V[F].reshape(-1, 3), atol=1e-6)
+    np.testing.assert_array_equal(loaded_F, np.arange(3 * len(F)).reshape(-1, 3))
+    prepared = prepare(loaded_V, loaded_F)
+    assert len(prepared.work_vertices) == len(V) and len(prepared.work_faces) == len(F)
+
+
+def test_obj_details(tmp_path):
+    """UV seams, normals, unreferenced and trailing vertices, relative indices, polygons, several objects and
+    materials, comments, CRLF, tabs, indentation and line continuations: vertices exactly as in the file."""
+    text = "\r\n".join([
+        "# a comment", "mtllib none.mtl", "o first", "v 0 0 0", "v 1 0 0", "\tv 0 1 0", "v 0 0 1",
+        "vt 0 0", "vt 1 0", "vt 0 1", "vt 1 1", "vn 0 0 1",
+        "usemtl a", "f 1/1/1 2/2/1 3/3/1", "f 1/4 2/2 4/3  # trailing comment",
+        "v 9 9 9", "o second", "usemtl b", "  f -5 -3 \\", "  -2", "f 2//1 3//1 4//1 1//1",
+        "v 0.5 0.5 0.5", "v 7 7 7",
+    ])
+    path = tmp_path / "detail.obj"
+    path.write_bytes(text.encode())
+    V, F = load_mesh(path)
+    np.testing.assert_array_equal(V, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [9, 9, 9], [.5, .5, .5],
+                                      [7, 7, 7]])
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3], [1, 3, 0]])
+
+
+def test_obj_polygons_fan_triangulated_in_file_order(tmp_path):
+    path = tmp_path / "poly.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\n"
+                    "f 1 2 3 4\nf 1 2 5\nf 2 3 4 6 5\n")
+    _, F = load_mesh(path)
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 2, 3], [0, 1, 4], [1, 2, 3], [1, 3, 5], [1, 5, 4]])
+
+
+def test_off_polygons_and_variants(tmp_path):
+    path = tmp_path / "poly.off"
+    path.write_text("OFF # header comment\n6 3 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n9 9 9\n"
+                    "4 0 1 2 3\n3 0 1 4\n5 0 1 2 3 4\n")
+    V, F = load_mesh(path)
+    assert len(V) == 6
+    np.testing.assert_array_equal(F, [[0, 1, 2], [0, 2, 3], [0, 1, 4], [0, 1, 2], [0, 2, 3], [0, 3, 4]])
+    coloured = tmp_path / "colour.off"
+    coloured.write_text("COFF 4 4 0\n0 0 0 255 0 0 255\n1 0 0 0 0 0 255\n0 1 0 0 0 0 255\n0 0 1 0 0 0 255\n"
+                        "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+    V, F = load_mesh(coloured)
+    np.testing.assert_array_equal(V, tetrahedron()[0])
+    np.testing.assert_array_equal(F, tetrahedron()[1])
+
+
+def test_ply_keeps_unreferenced_vertices(tmp_path):
+    V, F = tetrahedron()
+    path = tmp_path / "stray.ply"
+    trimesh.Trimesh(np.vstack([V, [[5.0, 5, 5]]]), F, process=False).export(path)
+    loaded_V, loaded_F = load_mesh(path)
+    assert len(loaded_V) == 5
+    np.testing.assert_array_equal(loaded_F, F)
+
+
+def test_glb_scene_is_flattened_with_world_transforms_in_node_name_order(tmp_path):
+    V, F = tetrahedron()
+    scene = trimesh.Scene()
+    move = trimesh.transformations.translation_matrix([10, 0, 0])
+    turn = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1])
+    scene.add_geometry(trimesh.Trimesh(V, F, process=False), node_name="b_moved", geom_name="one",
+                       transform=move @ turn)
+    scene.add_geometry(trimesh.Trimesh(V * 2, F, process=False), node_name="a_still", geom_name="two")
+    path = tmp_path / "scene.glb"
+    scene.export(path)
+    loaded_V, loaded_F = load_mesh(path)
+    expected_moved = V @ turn[:3, :3].T + [10, 0, 0]
+    np.testing.assert_allclose(loaded_V, np.vstack([V * 2, expected_moved]), atol=1e-6)
+    np.testing.assert_array_equal(loaded_F, np.vstack([F, F + 4]))
+
+
+def test_load_does_not_touch_the_file(tmp_path):
+    V, F = shuffled_sphere()
+    path = tmp_path / "sphere.obj"
+    trimesh.Trimesh(V, F, process=False).export(path)
+    before, mtime = path.read_bytes(), path.stat().st_mtime_ns
+    load_mesh(path)
+    assert path.read_bytes() == before and path.stat().st_mtime_ns == mtime
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sphere.obj"]
+
+
+# ------------------------------------------------------------------------------------------------- bad input
+
+def write(tmp_path: Path, name: str, content: str | bytes) -> Path:
+    path = tmp_path / name
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content)
+    return path
+
+
+TETRA_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+POINT_CLOUD_PLY = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                   "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n")
+PNG_BYTES = b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)) * 4
+FLAT_OBJ = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 0\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n"
+
+BAD_FILES = {
+    # name: (file name, content or None for no file, words the message must contain)
+    "missing": ("nothere.obj", None, "no such file"),
+    "unknown extension": ("mesh.xyz", TETRA_OBJ, "unknown mesh format"),
+    "no extension": ("mesh", TETRA_OBJ, "unknown mesh format"),
+    "text file as obj": ("notes.obj", "Dear diary,\nto day I rigged a mesh.\n", "not an OBJ file"),
+    "text file as ply": ("notes.ply", "hello\nworld\n", "cannot read as PLY"),
+    "text file as stl": ("notes.stl", "hello\nworld\n", "no mesh found"),
+    "text file as off": ("notes.off", "hello\nworld\n", "not an OFF file"),
+    "text file as glb": ("notes.glb", "hello\nworld\n", "cannot read as glTF"),
+    "image as obj": ("picture.obj", PNG_BYTES, "binary data"),
+    "image as glb": ("picture.glb", PNG_BYTES, "cannot read as glTF"),
+    "garbage ply": ("garbage.ply", bytes(np.random.default_rng(1).integers(0, 256, 3000, dtype=np.uint8)),
+                    "cannot read as PLY"),
+    "empty obj": ("empty.obj", "", "no vertices"),
+    "comments only obj": ("comments.obj", "# nothing here\n\n", "no vertices"),
+    "empty off": ("empty.off", "", "empty file"),
+    "empty stl": ("empty.stl", b"", "no mesh found"),
+    "point cloud ply": ("cloud.ply", POINT_CLOUD_PLY, "point cloud"),
+    "point cloud obj": ("cloud.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n", "point cloud"),
+    "nan": ("nan.obj", TETRA_OBJ.replace("v 0 1 0", "v 0 nan 0"), "NaN or infinite"),
+    "inf": ("inf.obj", TETRA_OBJ.replace("v 0 1 0", "v 0 inf 0"), "NaN or infinite"),
+    "index out of range": ("range.obj", TETRA_OBJ + "f 1 2 9\n", "out of range"),
+    "relative index before the first vertex": ("rel.obj", TETRA_OBJ + "f -1 -2 -7\n", "out of range"),
+    "index zero": ("zero.obj", TETRA_OBJ + "f 0 1 2\n", "index 0"),
+    "malformed vertex": ("short.obj", "v 0 0\n" + TETRA_OBJ, "line 1: a vertex needs three numbers"),
+    "malformed face": ("face.obj", TETRA_OBJ + "f 1 2 x\n", "line 9: malformed face"),
+    "two-corner face": ("edge.obj", TETRA_OBJ + "f 1 2\n", "at least three"),
+    "single triangle": ("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "at least 4"),
+    "flat": ("flat.obj", FLAT_OBJ, "flat"),
+    "collinear": ("line.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nv 3 3 3\nf 1 2 3\nf 2 3 4\n", "zero area"),
+    "zero size": ("point.obj", "v 1 1 1\nv 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\nf 1 3 4\n", "zero size"),
+    "degenerate only": ("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 1 2\nf 3 4 4\n",
+                        "zero area"),
+    "truncated off": ("short.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n", "truncated"),
+    "4D off": ("four.off", "4OFF\n1 1 0\n0 0 0 0\n", "not supported"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_FILES))
+def test_bad_files_raise_one_line_input_errors(tmp_path, case):
+    name, content, words = BAD_FILES[case]
+    path = tmp_path / name
+    if content is not None:
+        write(tmp_path, name, content)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    with pytest.raises(InputError) as info:
+        load_mesh(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(str(path)), message
+    assert words in message, message
+    assert info.value.exit_code == 2
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_directory_is_not_a_mesh(tmp_path):
+    folder = tmp_path / "folder.obj"
+    folder.mkdir()
+    with pytest.raises(InputError, match="is a directory"):
+        load_mesh(folder)
+
+
+@pytest.mark.skipif(not (DATA / "meshes/woody.obj").exists(), reason="shared data not available")
+def test_woody_is_flat_and_the_message_asks_for_a_volume():
+    with pytest.raises(InputError) as info:
+        load_mesh(DATA / "meshes/woody.obj")
+    assert "woody.obj" in str(info.value) and "flat" in str(info.value) and "volume" in str(info.value)
+
+
+BAD_ARRAYS = {
+    "empty": ([], [], "no vertices"),
+    "vertices not [V, 3]": (np.zeros((4, 2)), [[0, 1, 2]], "shape"),
+    "vertices not numbers": ([["a", "b", "c"]] * 4, [[0, 1, 2]], "array of numbers"),
+    "ragged vertices": ([[0, 0, 0], [1, 0]], [[0, 1, 2]], "array of numbers"),
+    "no faces": (tetrahedron()[0], np.zeros((0, 3), int), "point cloud"),
+    "faces not [F, 3]": (tetrahedron()[0], [[0, 1, 2, 3]], "shape"),
+    "faces not integers": (tetrahedron()[0], [[0, 1, 2.5]], "integer"),
+    "faces as strings": (tetrahedron()[0], [["a", "b", "c"]], "integer"),
+    "negative face index": (tetrahedron()[0], [[0, 1, -1], [0, 1, 2]], "out of range"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_ARRAYS))
+def test_bad_arrays_raise_input_errors(case):
+    vertices, faces, words = BAD_ARRAYS[case]
+    with pytest.raises(InputError, match=words) as info:
+        prepare(vertices, faces)
+    assert str(info.value).startswith("mesh: ")
+
+
+def test_integral_float_faces_are_accepted():
+    V, F = tetrahedron()
+    V2, F2 = check_mesh(V, F.astype(float))
+    np.testing.assert_array_equal(F2, F)
+    assert F2.dtype == np.int64
+
+
+# -------------------------------------------------------------------------------------------------- properties
+
+def coordinates(allow_bad: bool):
+    return st.floats(allow_nan=allow_bad, allow_infinity=allow_bad, width=64,
+                     min_value=None if allow_bad else -1e6, max_value=None if allow_bad else 1e6)
+
+
+@st.composite
+def broken_meshes(draw):
+    """Vertex and face arrays that are often, but not always, broken: wrong shapes, NaN, inf, huge values,
+    repeated, collinear and coplanar points, out-of-range and degenerate faces."""
+    def rarely() -> bool:
+        return draw(st.sampled_from([False] * 9 + [True]))
+
+    n = draw(st.integers(0, 3)) if rarely() else draw(st.integers(4, 12))
+    shape = draw(st.sampled_from([(n, 2), (n,), (n, 3, 1)])) if rarely() else (n, 3)
+    kind = draw(st.sampled_from(["random"] * 4 + ["wild", "coplanar", "collinear", "repeated", "grid"]))
+    V = draw(hnp.arrays(np.float64, shape, elements=coordinates(kind == "wild"), fill=st.nothing()))
+    if V.ndim == 2 and V.shape[1] == 3:
+        if kind == "coplanar":
+            V[:, 2] = 0.25
+        elif kind == "collinear":
+            V = np.outer(V[:, 0], [1.0, -2.0, 3.0])
+        elif kind == "repeated" and n:
+            V[:] = V[0]
+        elif kind == "grid":
+            V = np.round(V / 2e5)  # few distinct values: many coincident vertices and zero-area faces
+    # the four faces of the tetrahedron on the first four vertices, then random ones
+    closed = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] if n >= 4 and not rarely() else []
+    m = draw(st.integers(0, 8))
+    face_shape = draw(st.sampled_from([(m, 4), (m,)])) if rarely() else (m, 3)
+    indices = st.integers(-2, n + 1) if rarely() else st.integers(0, max(n - 1, 0))
+    F = draw(hnp.arrays(np.int64, face_shape, elements=indices))
+    if closed and F.ndim == 2 and F.shape[1] == 3:
+        F = np.vstack([closed, F])
+    if rarely():
+        F = F.astype(float)
+    return V, F
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(broken_meshes(), st.sampled_from(FRAMES))
+def test_prepare_either_works_or_raises_input_error(mesh, frame):
+    V, F = mesh
+    V0, F0 = V.copy(), F.copy()
+    try:
+        prepared = prepare(V, F, up=frame[0], front=frame[1])
+    except InputError as e:
+        assert "\n" not in str(e)
+    else:
+        assert isinstance(prepared, PreparedMesh)
+        assert np.isfinite(prepared.vertices).all() and np.isfinite(prepared.work_vertices).all()
+        assert len(prepared.work_vertices) >= 4 and len(prepared.work_faces) >= 2
+        used = np.unique(prepared.faces)
+        assert prepared.vertices[used, 1].min() == 0
+        assert prepared.vertices[used, 1].max() == pytest.approx(1)
+        assert prepared.work_faces.max() < len(prepared.work_vertices)
+    np.testing.assert_array_equal(V, V0)
+    np.testing.assert_array_equal(F, F0)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(*[coordinates(False)] * 3), min_size=4, max_size=30), st.randoms())
+def test_prepare_random_point_soups(points, random):
+    """Random triangles over random points: fine, or one InputError."""
+    V = np.array(points)
+    F = np.array([random.sample(range(len(V)), 3) for _ in range(random.randint(1, 20))])
+    try:
+        prepared = prepare(V, F)
+    except InputError:
+        return
+    np.testing.assert_allclose(prepared.from_canonical(prepared.vertices), V, atol=1e-6 * np.ptp(V) + 1e-9)
