@@ -203,7 +203,11 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
             half_diagonal = np.sqrt(3) / 2 * edge * finest
             # Far outside the mesh nothing downstream needs detail, however curved the field is there.
             far_outside = centre_depth < -half_diagonal
-            split = (error > tolerance) & ~far_outside
+            # A cell the surface may cross (distance is 1-Lipschitz) can hide a limb thinner than itself
+            # between its corners, where the interpolation cannot see it: such cells always split down to
+            # the surface level.
+            on_surface = (np.abs(centre_depth) < half_diagonal) & (level < max_level - 1)
+            split = ((error > tolerance) & ~far_outside) | on_surface
         leaves_level.append(np.full(int((~split).sum()), level))
         leaves_index.append(cells[~split])
         leaves_values.append(corner_depth[~split])

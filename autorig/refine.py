@@ -11,6 +11,8 @@ term           weight  what it asks
 depth          1.0     each joint at least as deep in the volume as where it started (centred in its limb)
 inside         4.0     every bone's segment inside the mesh
 length         1.0     bone lengths as placed on the paths (squared relative change)
+direction      0.3     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
+                       on the spine)
 symmetry       0.5     mirrored joints mirror images of each other about the body's mid-plane
 anchor         0.2     joints stay near where the embedding put them (squared, per 5% of the height)
 =============  ======  ==================================================================================
@@ -24,7 +26,7 @@ from .embed import Embedding
 from .graph import SphereGraph
 from .template import Template
 
-TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "symmetry": 0.5, "anchor": 0.2}
+TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry": 0.5, "anchor": 0.2}
 ANCHOR_UNIT = 0.05
 BONE_SAMPLES = np.linspace(0.0, 1.0, 6)[1:-1]
 
@@ -78,6 +80,8 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
     solid_bone = solid[child]
     target_depth = np.maximum(field.depth(initial), 0.0)
     rest_length = np.maximum(np.linalg.norm(initial[child] - initial[parent], axis=1), 1e-6)
+    template_dir = template.positions[child] - template.positions[parent]
+    template_dir /= np.linalg.norm(template_dir, axis=1, keepdims=True)
     left = np.array([i for i, j in template.symmetry])
     right = np.array([j for i, j in template.symmetry])
     flip = np.array([-1.0, 1.0, 1.0])
@@ -112,6 +116,14 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
         rel = (length - rest_length) / rest_length
         total += TERMS["length"] * np.sum(rel ** 2)
         g_v = (TERMS["length"] * 2.0 * rel / rest_length / length)[:, None] * v
+        np.add.at(grad, child, g_v)
+        np.add.at(grad, parent, -g_v)
+
+        # direction: bones point the template's way
+        unit = v / length[:, None]
+        cos = np.einsum("ij,ij->i", unit, template_dir)
+        total += TERMS["direction"] * np.sum(1.0 - cos)
+        g_v = -TERMS["direction"] * (template_dir - cos[:, None] * unit) / length[:, None]
         np.add.at(grad, child, g_v)
         np.add.at(grad, parent, -g_v)
 

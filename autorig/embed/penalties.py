@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import RigFailedError
 from ..graph import SphereGraph
 from ..template import ReducedSkeleton, Template
 
@@ -123,13 +124,22 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
         if p >= 0:
             kids[p].append(k)
     fat = set(template.fat)
-    ends = graph_extremities(graph)
+    leaves = sum(1 for c in kids if not c)
+    # A short limb (a stubby arm, a small tail) stands out less than the default; look harder before
+    # concluding that the shape lacks the template's limbs.
+    for prominence in (PROMINENCE, PROMINENCE / 2, PROMINENCE / 4, PROMINENCE / 8):
+        ends = graph_extremities(graph, prominence)
+        if len(ends) >= leaves:
+            break
+    else:
+        raise RigFailedError(f"the {template.name} template needs {leaves} limb ends (head, hands, feet, "
+                             f"tail...) but this shape has only {len(ends)}: is it the right template?")
     thick = np.flatnonzero(graph.radii >= FAT_FRACTION * graph.radii.max())
     thinness = WEIGHTS["fat"] * (1.0 - graph.radii / graph.radii.max())
     everything = np.arange(S)
     candidates = []
     for k, j in enumerate(reduced.joints):
-        if not kids[k] and len(ends) >= sum(1 for c in kids if not c):
+        if not kids[k]:
             candidates.append(ends)
         elif j in fat:
             candidates.append(thick)

@@ -26,12 +26,13 @@ class Embedding:
     paths: list[list[int]]
     cost: float
     expanded: int
+    optimal: bool = True
 
 
 GREEDY_STARTS = 8
 
 
-def search(problem: EmbeddingProblem, max_expansions: int = 200_000) -> Embedding:
+def search(problem: EmbeddingProblem, max_expansions: int = 20_000) -> Embedding:
     K = len(problem.reduced.joints)
     parents = problem.reduced.parents
     children = [[c for c in range(K) if parents[c] == k] for k in range(K)]
@@ -87,7 +88,7 @@ def search(problem: EmbeddingProblem, max_expansions: int = 200_000) -> Embeddin
 
     # Greedy descents from the most promising roots give complete embeddings; the cheapest bounds the
     # search from above, so states that cannot beat it are never queued.
-    upper = np.inf
+    upper, greedy = np.inf, None
     roots = np.flatnonzero(np.isfinite(problem.root_cost))
     root_f = np.array([problem.root_cost[s] + estimate((int(s),)) for s in roots])
     for s in roots[np.argsort(root_f, kind="stable")[:GREEDY_STARTS]]:
@@ -98,8 +99,8 @@ def search(problem: EmbeddingProblem, max_expansions: int = 200_000) -> Embeddin
                 break
             best = int(np.argmin(f2))
             placed, g = placed + (int(spheres[best]),), float(g2[best])
-        if len(placed) == K:
-            upper = min(upper, g * (1 + 1e-9) + 1e-12)
+        if len(placed) == K and g * (1 + 1e-9) + 1e-12 < upper:
+            upper, greedy = g * (1 + 1e-9) + 1e-12, (placed, g)
 
     counter = 0
     queue = []
@@ -123,8 +124,11 @@ def search(problem: EmbeddingProblem, max_expansions: int = 200_000) -> Embeddin
         for i in np.flatnonzero(f2 <= upper):
             heapq.heappush(queue, (float(f2[i]), counter, float(g2[i]), placed + (int(spheres[i]),)))
             counter += 1
-    raise RigFailedError(f"the template could not be embedded in this shape (searched {expanded} "
-                         f"partial embeddings without completing one)")
+    if greedy is not None:
+        # Out of budget: the greedy embedding is complete and usually close; the caller is told.
+        return Embedding(np.array(greedy[0]), _paths(problem, greedy[0]), greedy[1], expanded, optimal=False)
+    raise RigFailedError("the template could not be embedded in this shape: no placement of its joints "
+                         "keeps every limb inside the mesh")
 
 
 def _paths(problem: EmbeddingProblem, placed: tuple[int, ...]) -> list[list[int]]:
