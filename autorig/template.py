@@ -102,10 +102,18 @@ class Template:
         return ReducedSkeleton(np.array(keep), np.array(parents), chains, np.array(lengths))
 
 
+def _builtin_folder():
+    """The folder of built-in templates: the installed ``autorig.templates`` package, or, when autorig runs
+    from a source checkout that is not installed, the checkout's ``templates/``."""
+    try:
+        return resources.files("autorig.templates")
+    except ModuleNotFoundError:
+        return Path(__file__).resolve().parents[1] / "templates"
+
+
 def builtin_names() -> list[str]:
     """Names of the templates that ship with autorig."""
-    files = resources.files("autorig.templates")
-    return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".json"))
+    return sorted(p.name[:-5] for p in _builtin_folder().iterdir() if p.name.endswith(".json"))
 
 
 def load_template(name_or_path: str | Path) -> Template:
@@ -123,7 +131,7 @@ def load_template(name_or_path: str | Path) -> Template:
     if text_path not in builtin_names():
         raise TemplateError(f"unknown template {text_path!r}; built-in templates: {', '.join(builtin_names())} "
                             f"(or give a path to a .json file)")
-    data = json.loads(resources.files("autorig.templates").joinpath(text_path + ".json").read_text())
+    data = json.loads(_builtin_folder().joinpath(text_path + ".json").read_text())
     return template_from_dict(data, default_name=text_path, source=text_path)
 
 

@@ -1,0 +1,137 @@
+"""End to end: rig characters whose skeleton is known and check what a user would check."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import autorig
+from autorig.samples import mannequin, quadruped
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+
+
+def winding(vertices, faces, points):
+    import igl
+    return igl.fast_winding_number(np.asarray(vertices, float), np.asarray(faces, np.int64),
+                                   np.asarray(points, float))
+
+
+def joint_errors(rig, sample):
+    """{joint name: error / height} for every non-tip template joint."""
+    height = float(np.ptp(sample.vertices[:, 1]))
+    return {n: float(np.linalg.norm(rig.joint(n) - sample.joints[n]) / height)
+            for n in rig.names if not n.endswith("_end")}
+
+
+def dominant_joint(rig, point):
+    """Name of the joint that dominates the vertex nearest to ``point``."""
+    i = int(np.argmin(np.linalg.norm(rig.vertices - point, axis=1)))
+    return rig.names[int(np.argmax(rig.weights[i]))]
+
+
+@pytest.fixture(scope="module", params=[("t", "adult"), ("a", "heavy"), ("down", "tall"), ("t", "child")],
+                ids=lambda p: f"{p[0]}-{p[1]}")
+def rigged_mannequin(request):
+    pose, build = request.param
+    sample = mannequin(pose=pose, proportions=build)
+    return sample, autorig.rig((sample.vertices, sample.faces), "biped")
+
+
+def test_mannequin_joints_near_truth(rigged_mannequin):
+    sample, rig = rigged_mannequin
+    errors = joint_errors(rig, sample)
+    assert np.mean(list(errors.values())) < 0.05, errors
+    assert max(errors.values()) < 0.10, errors
+
+
+def test_mannequin_joints_inside_and_sided(rigged_mannequin):
+    sample, rig = rigged_mannequin
+    solid = [i for i, n in enumerate(rig.names) if not n.endswith("_end")]
+    assert np.all(winding(sample.vertices, sample.faces, rig.joints[solid]) > 0.5)
+    for name in rig.names:
+        if name.startswith("left_"):
+            mirror = name.replace("left_", "right_")
+            # The character's left is +x for a figure facing +z.
+            assert rig.joint(name)[0] > rig.joint(mirror)[0], name
+
+
+def test_mannequin_weights(rigged_mannequin):
+    sample, rig = rigged_mannequin
+    W = rig.weights
+    assert W.shape == (len(sample.vertices), len(rig.names))
+    assert np.all(W >= 0)
+    np.testing.assert_allclose(W.sum(axis=1), 1.0, atol=1e-9)
+    # Hands move with the forearm/hand joints of their own side, feet with their own ankle/toe.
+    for side in ("left", "right"):
+        assert dominant_joint(rig, sample.joints[f"{side}_hand_end"]) in (f"{side}_wrist", f"{side}_elbow")
+        assert dominant_joint(rig, sample.joints[f"{side}_toe_end"]) in (f"{side}_ankle", f"{side}_toe")
+    assert dominant_joint(rig, sample.joints["head_end"]) in ("head", "neck")
+
+
+def test_output_in_input_coordinates():
+    """A Z-up mesh in centimetres rigs to the same skeleton, in its own axes and units."""
+    sample = mannequin(pose="a")
+    upright = autorig.rig((sample.vertices, sample.faces), "biped")
+    # Z up, facing -y: (x, y, z)_input = (x, -z, y)_canonical, in centimetres.
+    V = np.c_[sample.vertices[:, 0], -sample.vertices[:, 2], sample.vertices[:, 1]] * 100.0
+    lying = autorig.rig((V, sample.faces), "biped", autorig.RigOptions(up="z", front="-y"))
+    back = np.c_[lying.joints[:, 0], lying.joints[:, 2], -lying.joints[:, 1]] / 100.0
+    np.testing.assert_allclose(back, upright.joints, atol=1e-3 * 1.7)
+    np.testing.assert_array_equal(lying.vertices, V)
+
+
+def test_deterministic():
+    sample = mannequin(pose="down")
+    a = autorig.rig((sample.vertices, sample.faces), "biped")
+    b = autorig.rig((sample.vertices, sample.faces), "biped")
+    np.testing.assert_array_equal(a.joints, b.joints)
+    np.testing.assert_array_equal(a.weights, b.weights)
+
+
+def test_quadruped_dog():
+    sample = quadruped("dog")
+    rig = autorig.rig((sample.vertices, sample.faces), "quadruped")
+    height = float(np.ptp(sample.vertices[:, 1]))
+    errors = {n: np.linalg.norm(rig.joint(n) - sample.joints[n]) / height for n in rig.names
+              if not n.endswith("_end") and n in sample.joints}
+    assert np.mean(list(errors.values())) < 0.08, errors
+    assert max(errors.values()) < 0.16, errors
+    for side in ("left", "right"):
+        assert dominant_joint(rig, sample.joints[f"front_{side}_paw"]).startswith(f"front_{side}_")
+        assert dominant_joint(rig, sample.joints[f"back_{side}_paw"]).startswith(f"back_{side}_")
+
+
+@pytest.mark.skipif(not (SHARED / "data" / "rigged" / "CesiumMan").is_dir(), reason="shared data absent")
+def test_cesium_man_cli_end_to_end(tmp_path):
+    """The README's promise on a real character: a .glb that loads back, validates, and scores well."""
+    gt_dir = SHARED / "data" / "rigged" / "CesiumMan"
+    mesh = tmp_path / "CesiumMan.obj"
+    shutil.copy(gt_dir / "mesh.obj", mesh)
+    before = mesh.read_bytes()
+    run = subprocess.run([sys.executable, "-m", "autorig.cli", str(mesh), "--template", "biped", "--front", "x"],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    out = tmp_path / "CesiumMan.rigged.glb"
+    assert out.is_file() and str(out.name) in run.stdout
+    assert mesh.read_bytes() == before
+
+    import trimesh
+    from autorig.exchange.gltf import read_glb
+    from autorig.mesh import load_mesh
+    V, _ = load_mesh(mesh)
+    loaded = read_glb(out)
+    np.testing.assert_allclose(loaded.vertices, V, atol=1e-5)
+    assert len(trimesh.load(out, force="mesh", process=False).vertices) == len(V)
+
+    result = json.loads(subprocess.run([sys.executable, str(SHARED / "tools" / "score.py"), str(gt_dir), str(out),
+                                        "--kind", "biped"], capture_output=True, text=True, check=True).stdout)
+    assert result["joints"]["mean"] < 0.05 and result["joints"]["max"] < 0.10, result["joints"]
+    assert result["weights"]["top1_pct"] > 85.0
+    assert result["weights"]["pred_zero_rows"] == 0
