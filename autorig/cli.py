@@ -21,7 +21,7 @@ import click
 from . import __version__
 from .errors import AutorigError, OutputError
 
-AXES = ["x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
+AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
 # Must match autorig.exchange.FORMATS (a test checks); repeated here so --help need not import numpy.
 FORMATS = ["glb", "gltf", "pinocchio", "json"]
 FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json"}
@@ -37,6 +37,7 @@ Exit codes:
   3    unknown or malformed template
   4    output cannot be written
   5    the mesh was read but could not be rigged
+  6    --strict: the rig's confidence is below the threshold (nothing written)
   70   internal error (a bug: run with --debug and report it)
   130  interrupted (Ctrl-C)"""
 
@@ -129,15 +130,18 @@ def cli():
 @click.option("-f", "--format", "fmt", type=click.Choice(FORMATS),
               help="Output format. [default: from -o's extension (.glb, .gltf, .json; no extension: "
                    "pinocchio folder), else glb]")
-@click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="y", show_default=True,
-              help="The mesh's up axis.")
-@click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="z", show_default=True,
-              help="The axis the character faces.")
+@click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
+              help="The mesh's up axis, or auto to detect it.")
+@click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
+              help="The axis the character faces, or auto to detect it (glTF's +z unless the shape "
+                   "clearly says otherwise).")
+@click.option("--strict", is_flag=True,
+              help="Write nothing and exit with code 6 when the rig's confidence is below the threshold.")
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
-                verbose: bool, quiet: bool):
+                strict: bool, verbose: bool, quiet: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result.
 
     On success prints one line: the mesh, template, joint and vertex counts, time and output path.
@@ -151,16 +155,23 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
 
     mesh_path = check_mesh_path(mesh)
     skeleton = load_template(template)
-    frame_rotation(up, front)  # rejects up parallel to front before any slow work
+    if "auto" not in (up, front):
+        frame_rotation(up, front)  # rejects up parallel to front before any slow work
     if output:
         _refuse_input(Path(output), mesh_path)
     fmt = fmt or _format_of(output)
     out_path = Path(output) if output else default_output_path(mesh_path, fmt)
     _check_output(out_path, fmt)
 
+    from .confidence import STRICT_THRESHOLD
+    from .errors import LowConfidenceError
     from .pipeline import RigOptions, rig
     with _library_noise(shown=verbose):
         result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front))
+        confidence = result.info["confidence"]
+        if strict and confidence < STRICT_THRESHOLD:
+            raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
+                                     f"({_weakest(result.info['confidence_parts'])}); nothing written")
         write_start = time.perf_counter()
         write_rig(result, out_path, fmt, input_path=mesh_path)
     end = time.perf_counter()
@@ -171,8 +182,11 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         for stage, seconds in timings.items():
             click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
     if not quiet:
+        axes = f"up {result.info['up']}, front {result.info['front']}"
+        if result.info["axes_detected"]:
+            axes += " (detected)"
         click.echo(f"{mesh}: {result.template}, {len(result.names)} joints, {len(result.vertices)} vertices, "
-                   f"{end - start:.2f} s -> {out_path}")
+                   f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}")
 
 
 @cli.command("templates", short_help="List the built-in templates.")
@@ -188,6 +202,12 @@ def templates_command():
         joints = len(load_template(name).names)
         data = json.loads(resources.files("autorig.templates").joinpath(name + ".json").read_text())
         click.echo(f"{name:<12} {joints:3d} joints  {data.get('description', '')}")
+
+
+def _weakest(parts: dict[str, float]) -> str:
+    """The lowest parts of a confidence, e.g. 'limbs 0.29, fit 0.41'."""
+    low = sorted(parts.items(), key=lambda kv: kv[1])[:2]
+    return ", ".join(f"{k} {v:.2f}" for k, v in low)
 
 
 def _format_of(output: str | None) -> str:

@@ -24,3 +24,8 @@ class OutputError(AutorigError):
 class RigFailedError(AutorigError):
     """The mesh was read but no rig could be built for it (e.g. the template does not fit the shape)."""
     exit_code = 5
+
+
+class LowConfidenceError(AutorigError):
+    """--strict: a rig was made but its confidence is below the threshold, so it was not written."""
+    exit_code = 6

@@ -36,6 +36,13 @@ class SphereGraph:
             nodes.append(previous)
         return nodes[::-1]
 
+    def moved(self, centers: np.ndarray, scale: float) -> "SphereGraph":
+        """The same graph with its spheres at ``centers`` [S, 3]: a rigid motion of the old centres
+        followed by a uniform ``scale``, which radii and lengths follow."""
+        return SphereGraph(centers=centers, radii=self.radii * scale, edges=self.edges,
+                           lengths=self.lengths * scale, distances=self.distances * scale,
+                           predecessors=self.predecessors)
+
     def neighbours(self) -> list[np.ndarray]:
         """Adjacency lists: neighbours()[i] = indices of the spheres joined to sphere i."""
         out = [[] for _ in range(len(self.radii))]

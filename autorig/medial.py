@@ -82,6 +82,10 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
     from scipy.spatial import cKDTree
 
     keep_mask = samples.radii > min_radius
+    if not keep_mask.any():
+        from .errors import RigFailedError
+        raise RigFailedError("the mesh encloses no volume that a skeleton could sit in (is it an open sheet, "
+                             "or much thinner than it is wide?)")
     points, radii = samples.points[keep_mask], samples.radii[keep_mask]
     order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], -radii))  # deterministic ties
     points, radii = points[order], radii[order]

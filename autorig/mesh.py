@@ -409,7 +409,8 @@ class PreparedMesh:
     work_vertices  [W, 3] float64 canonical positions of the working mesh: coincident input vertices merged,
                    vertices no remaining triangle uses dropped; ordered by the first input vertex of each
     work_faces     [G, 3] int64 working triangles (indices into ``work_vertices``): zero-area triangles and
-                   repeated triangles (same three vertices, either orientation) dropped, input order otherwise
+                   repeated triangles (same three vertices, either orientation) dropped, input order otherwise;
+                   connected pieces that faced inward turned outward
     work_index     [V] int64 for each input vertex, the working vertex at its position, or -1 if no working
                    triangle touches that position (unreferenced or only in dropped triangles)
     rotation       [3, 3] rows are the input-space directions of canonical x (left), y (up), z (front)
@@ -475,6 +476,7 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
         raise InputError(f"{name}: vertex coordinates span too large a range to work with")
 
     work_vertices, work_faces, work_index = _working_copy(V, F, canonical)
+    work_faces = _outward(work_vertices, work_faces)
     _check_solid(work_vertices, work_faces,
                  lambda problem: InputError(f"{name}: after merging coincident vertices and dropping "
                                             f"degenerate triangles, {problem}"))
@@ -483,6 +485,29 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
     return PreparedMesh(vertices=canonical, faces=F, work_vertices=work_vertices, work_faces=work_faces,
                         work_index=work_index, rotation=rotation, offset=offset, scale=scale,
                         up=up, front=front, height=height)
+
+
+def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """F [F, 3] with every connected piece whose signed volume is negative turned inside out.
+
+    Exports that face inward (negative volume) would make every winding number negative, and so the whole
+    mesh "outside"; pieces are judged one by one because a model made of parts can have some parts right
+    and others reversed.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(V)
+    rows = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
+    cols = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
+    _, label = connected_components(coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)), directed=False)
+    T = V[F]
+    volume = np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])) / 6.0
+    piece_volume = np.bincount(label[F[:, 0]], weights=volume, minlength=label.max() + 1)
+    flip = piece_volume[label[F[:, 0]]] < 0
+    out = F.copy()
+    out[flip] = out[flip][:, [0, 2, 1]]
+    return out
 
 
 def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):

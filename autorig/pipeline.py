@@ -1,6 +1,7 @@
 """The spine of autorig: one line per stage of Baran & Popović's method.
 
-    mesh       -> prepare         canonical frame (+y up, facing +z, one unit tall), private working copy
+    mesh       -> orientation     which axis is up and which way it faces, unless the user said
+               -> prepare         canonical frame (+y up, facing +z, one unit tall), private working copy
                -> distance_field  adaptive octree of signed distance, winding-number inside/outside
                -> medial_samples  creases of the distance field: the approximate medial surface
                -> pack_spheres    maximal inscribed spheres, largest first
@@ -9,6 +10,7 @@
                -> place_on_paths  every template joint along the embedded paths
                -> refine          continuous optimisation of all joints
                -> bone_heat       skin weights for every input vertex
+               -> confidence      how much to trust the result
 """
 from __future__ import annotations
 
@@ -24,9 +26,10 @@ from .result import Rig
 
 @dataclass
 class RigOptions:
-    """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z)."""
-    up: str = "y"
-    front: str = "z"
+    """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z), or "auto"
+    to detect it (see ``autorig.orient``)."""
+    up: str = "auto"
+    front: str = "auto"
 
 
 def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
@@ -37,11 +40,13 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     Returns a ``Rig`` in the input's own coordinates, weights for every input vertex in input order.
     """
     from .attach import bone_heat
+    from .confidence import rig_confidence
     from .distance import distance_field
     from .embed import embed
     from .graph import sphere_graph
     from .medial import medial_samples, pack_spheres
-    from .mesh import load_mesh, prepare
+    from .mesh import check_mesh, load_mesh, prepare
+    from .orient import detect_orientation
     from .refine import place_on_paths, refine
     from .template import Template, load_template
 
@@ -50,9 +55,13 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else _as_arrays(mesh)
+        name = Path(mesh).name if isinstance(mesh, (str, Path)) else "mesh"
+        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, name)
         template = template if isinstance(template, Template) else load_template(template)
-        prepared = prepare(vertices, faces, up=options.up, front=options.front)
+    with stage("orientation"):
+        frame = detect_orientation(vertices, faces, template, options.up, options.front)
+    with stage("prepare"):
+        prepared = prepare(vertices, faces, up=frame.up, front=frame.front, name=name)
     with stage("distance field"):
         field = distance_field(prepared.work_vertices, prepared.work_faces)
     with stage("medial spheres"):
@@ -65,17 +74,17 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         joints = refine(field, place_on_paths(graph, embedding, template), template)
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
+    with stage("confidence"):
+        confidence, parts = rig_confidence(field, graph, embedding, template, joints)
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings,
-        info={"up": options.up, "front": options.front, "embedding_penalty": round(float(embedding.cost), 4),
-              "spheres": int(len(graph.radii)), "search_expansions": int(embedding.expanded)})
-
-
-def _as_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
-    vertices, faces = mesh
-    return np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+        info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
+              "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
+              "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
+              "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
+              "search_expansions": int(embedding.expanded)})
 
 
 def _stage_timer(timings: dict[str, float]):

@@ -55,7 +55,9 @@ def fake_rig(monkeypatch):
         J = len(template.names)
         return Rig(names=list(template.names), parents=template.parents.copy(), joints=template.positions.copy(),
                    weights=np.full((len(V), J), 1.0 / J), vertices=V, faces=F, template=template.name,
-                   timings={"load": 0.01, "embedding": 0.25})
+                   timings={"load": 0.01, "embedding": 0.25},
+                   info={"up": options.up, "front": options.front, "axes_detected": "auto" in (options.up, options.front),
+                         "confidence": 0.9, "confidence_parts": {"fit": 0.9}})
 
     monkeypatch.setattr(pipeline, "rig", rig)
     return calls
@@ -141,7 +143,7 @@ def test_default_command_and_summary_line(tmp_path, tetra, fake_rig):
     assert json.loads((tmp_path / "out.json").read_text())
     mesh, template, options = fake_rig[0]
     assert Path(mesh) == tetra and template.name == "quadruped"
-    assert (options.up, options.front) == ("y", "z")
+    assert (options.up, options.front) == ("auto", "auto")
 
 
 def test_rig_subcommand_default_output_and_axes(tmp_path, tetra, fake_rig):

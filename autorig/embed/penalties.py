@@ -79,11 +79,17 @@ class EmbeddingProblem:
 
 def graph_extremities(graph: SphereGraph, min_prominence: float = PROMINENCE) -> np.ndarray:
     """Indices of the spheres that end limbs: local maxima of the path distance from the graph's centre
-    that stand out by at least ``min_prominence`` (height units).
+    that stand out by at least ``min_prominence`` (height units); see ``prominences``."""
+    return np.flatnonzero(prominences(graph) >= min_prominence)
 
-    A local maximum's prominence is how far down one must go from it before a higher maximum can be
-    reached (its persistence in the superlevel sets of the distance, found with union-find). A fingertip or
-    the tip of a tail stands out by a limb's length; a bump on the side of a tail only by the bump's.
+
+def prominences(graph: SphereGraph) -> np.ndarray:
+    """[S] how far each sphere stands out as the end of a limb (0 for spheres that are no local maximum).
+
+    Spheres are ranked by path distance from the graph's centre; a local maximum's prominence is how far
+    down one must go from it before a higher maximum can be reached (its persistence in the superlevel sets
+    of the distance, found with union-find). A fingertip or the tip of a tail stands out by a limb's length;
+    a bump on the side of a tail only by the bump's; the farthest sphere of all by infinity.
     """
     from_centre = graph.distances[int(np.argmin(graph.distances.max(axis=1)))]
     from_centre = np.where(np.isfinite(from_centre), from_centre, -1.0)
@@ -113,7 +119,7 @@ def graph_extremities(graph: SphereGraph, min_prominence: float = PROMINENCE) ->
             root[low] = high
     top = peak[find(order[0])]
     prominence[top] = np.inf
-    return np.flatnonzero(prominence >= min_prominence)
+    return prominence
 
 
 def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
