@@ -76,6 +76,7 @@ class DistanceField:
     corner_depth: np.ndarray
     corner_nearest: np.ndarray
     surface: SurfaceQuery
+    _level_index: list | None = None
 
     @property
     def finest(self) -> float:
@@ -119,20 +120,56 @@ class DistanceField:
         """Leaf index [N] containing each point given in finest-edge units (inside the cube)."""
         found = np.full(len(rel), -1, dtype=np.int64)
         base = np.floor(rel).astype(np.int64)
-        for level in range(self.max_level + 1):
-            at_level = np.flatnonzero(self.leaf_level == level)
-            if len(at_level) == 0:
-                continue
-            shift = self.max_level - level
-            keys = _key(self.leaf_index[at_level] >> shift)
-            order = np.argsort(keys)
+        for level, keys, leaves in self._levels():
             todo = np.flatnonzero(found < 0)
-            q = _key(base[todo] >> shift)
-            pos = np.searchsorted(keys[order], q)
-            pos = np.minimum(pos, len(order) - 1)
-            hit = keys[order][pos] == q
-            found[todo[hit]] = at_level[order[pos[hit]]]
+            if len(todo) == 0:
+                break
+            q = _key(base[todo] >> (self.max_level - level))
+            pos = np.minimum(np.searchsorted(keys, q), len(keys) - 1)
+            hit = keys[pos] == q
+            found[todo[hit]] = leaves[pos[hit]]
         return found
+
+    def _levels(self) -> list[tuple[int, np.ndarray, np.ndarray]]:
+        """Per level holding leaves, finest first (most points end there): (level, sorted keys of its
+        leaves' cells, leaf indices in that order). Built once: refinement queries the field hundreds of
+        times."""
+        if self._level_index is None:
+            self._level_index = []
+            for level in range(self.max_level, -1, -1):
+                at_level = np.flatnonzero(self.leaf_level == level)
+                if len(at_level):
+                    keys = _key(self.leaf_index[at_level] >> (self.max_level - level))
+                    order = np.argsort(keys)
+                    self._level_index.append((level, keys[order], at_level[order]))
+        return self._level_index
+
+    def moved(self, rotation: np.ndarray, offset: np.ndarray, scale: float) -> "MovedField":
+        """This field seen from another frame: new = scale * (rotation @ old) + offset."""
+        return MovedField(self, rotation, offset, scale)
+
+
+@dataclass
+class MovedField:
+    """A field in a frame that differs from the one it was built in by a rotation, a uniform scale and a
+    translation (new = scale * rotation @ old + offset), so the discretization done once in one frame serves
+    another. Offers the queries the later stages use."""
+    base: DistanceField
+    rotation: np.ndarray
+    offset: np.ndarray
+    scale: float
+
+    def depth(self, points: np.ndarray) -> np.ndarray:
+        return self.depth_and_gradient(points)[0]
+
+    def depth_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        old = ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
+        depth, gradient = self.base.depth_and_gradient(old)
+        return depth * self.scale, gradient @ self.rotation.T
+
+    def moved(self, rotation: np.ndarray, offset: np.ndarray, scale: float) -> "MovedField":
+        return MovedField(self.base, rotation @ self.rotation, scale * (rotation @ self.offset) + offset,
+                          scale * self.scale)
 
 
 def _key(index: np.ndarray) -> np.ndarray:

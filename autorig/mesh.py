@@ -29,6 +29,8 @@ FLAT_TOLERANCE = 1e-6
 # Triangles smaller than this (in units of size squared) carry no usable geometry: their angles, normals and
 # cotangent weights are numerically meaningless.
 AREA_TOLERANCE = 1e-12
+# Triangles the discretization works with at most; denser working meshes are simplified for it.
+COARSE_FACES = 12_000
 
 
 class AxisError(AutorigError, ValueError):
@@ -448,6 +450,50 @@ class PreparedMesh:
     def from_canonical(self, points) -> np.ndarray:
         """Canonical points [N, 3] (or one point [3]) -> input space [N, 3] (or [3])."""
         return (np.asarray(points, dtype=np.float64) / self.scale) @ self.rotation + self.offset
+
+    def reframed(self, up: str, front: str) -> "PreparedMesh":
+        """The same mesh in the canonical frame of other axes (no new checks, no new working copy)."""
+        rotation = frame_rotation(up, front)
+        rotated = self.from_canonical(self.work_vertices) @ rotation.T
+        lo, hi = rotated.min(axis=0), rotated.max(axis=0)
+        height = float(hi[1] - lo[1])
+        offset = rotation.T @ np.array([lo[0] / 2 + hi[0] / 2, lo[1], lo[2] / 2 + hi[2] / 2])
+        moved = PreparedMesh(vertices=self.vertices, faces=self.faces, work_vertices=self.work_vertices,
+                             work_faces=self.work_faces, work_index=self.work_index, rotation=rotation,
+                             offset=offset, scale=1.0 / height, up=up, front=front, height=height)
+        change = moved.change_from(self)
+        moved.vertices = change.apply(self.vertices)
+        moved.work_vertices = change.apply(self.work_vertices)
+        return moved
+
+    def change_from(self, other: "PreparedMesh") -> "FrameChange":
+        """The map from ``other``'s canonical frame to this one's."""
+        rotation = self.rotation @ other.rotation.T
+        ratio = self.scale / other.scale
+        return FrameChange(rotation, ratio, -self.scale * self.rotation @ self.offset
+                           + ratio * rotation @ (other.scale * other.rotation @ other.offset))
+
+    def coarse(self, max_faces: int = COARSE_FACES) -> tuple[np.ndarray, np.ndarray]:
+        """The working mesh, simplified to at most ``max_faces`` triangles when it has more:
+        (vertices [W', 3], faces [G', 3]) in the canonical frame. Dense scans carry far more triangles than
+        the skeleton's discretization can use; quadric decimation (fast-simplification) keeps the shape."""
+        if len(self.work_faces) <= max_faces:
+            return self.work_vertices, self.work_faces
+        import fast_simplification
+        vertices, faces = fast_simplification.simplify(self.work_vertices, self.work_faces.astype(np.int32),
+                                                       target_count=max_faces)
+        return np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class FrameChange:
+    """new = scale * rotation @ old + offset, between two canonical frames of one mesh."""
+    rotation: np.ndarray
+    scale: float
+    offset: np.ndarray
+
+    def apply(self, points) -> np.ndarray:
+        return self.scale * (np.asarray(points, dtype=np.float64) @ self.rotation.T) + self.offset
 
 
 def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh") -> PreparedMesh:

@@ -6,8 +6,8 @@ Files come Y-up or Z-up, facing any axis. Two cues decide:
    left-right axis. Of the three coordinate axes, the one whose mirror image of the surface lies closest to
    the surface itself is taken as left-right.
 2. The template. The other two axes leave eight frames (up is one of them, either sign; front is the other,
-   either sign). The discretization is done once, coarsely, in a neutral frame; its sphere graph is carried
-   into each candidate frame and the template embedded there. Feet low, head up, limbs the right way round:
+   either sign). The discretization, done once in the input's own axes, is carried into each candidate
+   frame (a rotation and a scale) and the template embedded there. Feet low, head up, limbs the right way round:
    the frame whose embedding costs least wins, and the gap to the runner-up says how sure that is.
 
 The embedding tells up from down very surely (every character tried so far), and a biped's front from its back
@@ -25,7 +25,9 @@ import numpy as np
 
 AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too
-CONVENTION_BONUS = 0.3   # embedding penalty a frame other than +y up / +z front must beat the convention by
+CONVENTION_BONUS = 0.5    # penalty per axis a frame off +y up / +z front must beat the convention by
+DETECTION_EXPANSIONS = 500  # A* budget per fully searched frame (its greedy embedding is used beyond it)
+FULL_SEARCHES = 4            # frames searched in full after the greedy ranking
 
 
 @dataclass
@@ -40,13 +42,12 @@ class Orientation:
     symmetry: list[float] = field(default_factory=list)
 
 
-def mirror_errors(vertices: np.ndarray, faces: np.ndarray, samples: int = 2000) -> np.ndarray:
-    """[3] how far the mirror image of the surface lies from the surface, mirrored across the plane through
-    the bounding-box centre normal to x, y and z in turn (mean distance / bounding-box diagonal)."""
-    from .distance import SurfaceQuery
-    surface = SurfaceQuery(vertices, faces)
-    step = max(1, len(vertices) // samples)
-    points = vertices[::step]
+def mirror_errors(surface, samples: int = 2000) -> np.ndarray:
+    """[3] how far the mirror image of a surface lies from the surface, mirrored across the plane through the
+    bounding-box centre normal to x, y and z in turn (mean distance / bounding-box diagonal).
+    ``surface`` is a ``SurfaceQuery`` in a frame whose axes are the input's (any scale and origin)."""
+    vertices = surface.vertices
+    points = vertices[:: max(1, len(vertices) // samples)]
     centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
     diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0)))
     out = np.zeros(3)
@@ -56,6 +57,12 @@ def mirror_errors(vertices: np.ndarray, faces: np.ndarray, samples: int = 2000) 
         depth, _ = surface.closest(mirrored)
         out[axis] = float(np.mean(np.abs(depth))) / diagonal
     return out
+
+
+def working_axes(up: str, front: str) -> tuple[str, str]:
+    """The frame to discretize in: the user's, when both axes are given; else the input's own axes (y, z),
+    so that the discretization's axes are the input's and detection can mirror across them."""
+    return (up, front) if "auto" not in (up, front) else ("y", "z")
 
 
 def candidate_frames(up: str, front: str, left_axis: int) -> list[tuple[str, str]]:
@@ -77,49 +84,56 @@ def candidate_frames(up: str, front: str, left_axis: int) -> list[tuple[str, str
     return out
 
 
-def detect_orientation(vertices: np.ndarray, faces: np.ndarray, template, up: str = "auto",
-                       front: str = "auto") -> Orientation:
-    """Choose the axes given as 'auto' (see the module docstring). ``vertices`` [V, 3], ``faces`` [F, 3]: the
-    mesh as loaded (any units, any orientation); ``template`` the Template to be embedded."""
-    from .distance import distance_field
-    from .embed.penalties import build_problem
-    from .embed.search import search
-    from .errors import RigFailedError
-    from .graph import sphere_graph
-    from .medial import medial_samples, pack_spheres
-    from .mesh import frame_rotation, prepare
+def detect_orientation(prepared, field, graph, template, up: str = "auto", front: str = "auto") -> Orientation:
+    """Choose the axes given as 'auto' (see the module docstring).
 
+    prepared, field, graph: the mesh, distance field and sphere graph in the frame of ``working_axes``;
+    template: the Template to be embedded.
+    """
     if up != "auto" and front != "auto":
         return Orientation(up, front)
-    symmetry = mirror_errors(np.asarray(vertices, float), np.asarray(faces, np.int64))
+    symmetry = mirror_errors(field.surface)
     # A posed character (a galloping horse) can be nearly as symmetric across a second axis: then both are
     # tried as left-right. The user's up is never left-right (trust a character lying on its side).
     order = [a for a in np.argsort(symmetry, kind="stable") if up == "auto" or a != AXES.index(up[-1])]
     left_axes = [a for a in order[:2] if symmetry[a] <= SYMMETRY_AMBIGUITY * symmetry[order[0]] + 1e-4]
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
-
-    # One coarse discretization in a neutral frame (the input's own axes, one unit across).
-    neutral = prepare(vertices, faces, up="y", front="z")
-    field = distance_field(neutral.work_vertices, neutral.work_faces, max_level=6, tolerance=0.004)
-    graph = sphere_graph(field, pack_spheres(medial_samples(field)))
-    centers_input = neutral.from_canonical(graph.centers)
-    costs = {}
+    # Greedy embeddings rank the frames (an upside-down frame costs many times more); the two best are
+    # then searched in full, which is what tells front from back.
+    problems = {}
     for u, f in candidates:
-        rotation = frame_rotation(u, f)
-        rotated = np.asarray(vertices, float) @ rotation.T
-        height = float(np.ptp(rotated[:, 1]))
-        lo = rotated.min(axis=0)
-        hi = rotated.max(axis=0)
-        centre = np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])
-        scale = 1.0 / height
-        moved = graph.moved((centers_input @ rotation.T - centre) * scale, scale / neutral.scale)
-        try:
-            cost = float(search(build_problem(moved, template), max_expansions=2000).cost)
-        except RigFailedError:
-            cost = float("inf")
-        costs[f"{u}/{f}"] = cost + CONVENTION_BONUS * ((u.lstrip("+") != "y") + (f.lstrip("+") != "z"))
+        change = prepared.reframed(u, f).change_from(prepared)
+        problems[(u, f)] = graph.moved(change.apply(graph.centers), change.scale)
+    costs = {key: _embedding_cost(moved, template, 0) for key, moved in problems.items()}
+    for key in sorted(costs, key=lambda k: (costs[k] + _handicap(*k), k))[:FULL_SEARCHES]:
+        costs[key] = _embedding_cost(problems[key], template, DETECTION_EXPANSIONS)
+    costs = {f"{u}/{f}": cost + _handicap(u, f) for (u, f), cost in costs.items()}
     ranked = sorted(costs, key=lambda k: (costs[k], k))
-    best = ranked[0]
-    margin = costs[ranked[1]] - costs[best] if len(ranked) > 1 else 0.0
-    u, f = best.split("/")
-    return Orientation(u, f, costs, float(margin), [float(s) for s in symmetry])
+    margin = costs[ranked[1]] - costs[ranked[0]] if len(ranked) > 1 else 0.0
+    u, f = ranked[0].split("/")
+    return Orientation(u, f, costs, float(margin), [float(v) for v in symmetry])
+
+
+def _handicap(up: str, front: str) -> float:
+    return CONVENTION_BONUS * ((up.lstrip("+") != "y") + (front.lstrip("+") != "z"))
+
+
+def _embedding_cost(graph, template, expansions: int) -> float:
+    """Penalty of the template's best embedding found within ``expansions`` A* steps (0: greedy only)."""
+    from .embed.penalties import build_problem
+    from .embed.search import search
+    from .errors import RigFailedError
+    try:
+        return float(search(build_problem(graph, template), max_expansions=expansions).cost)
+    except RigFailedError:
+        return float("inf")
+
+
+def reorient(prepared, field, graph, orientation: Orientation):
+    """(prepared, field, graph) carried into the frame of ``orientation`` (unchanged if already in it)."""
+    if (prepared.up, prepared.front) == (orientation.up, orientation.front):
+        return prepared, field, graph
+    moved = prepared.reframed(orientation.up, orientation.front)
+    change = moved.change_from(prepared)
+    return (moved, field.moved(change.rotation, change.offset, change.scale),
+            graph.moved(change.apply(graph.centers), change.scale))

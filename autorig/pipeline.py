@@ -1,11 +1,12 @@
 """The spine of autorig: one line per stage of Baran & Popović's method.
 
-    mesh       -> orientation     which axis is up and which way it faces, unless the user said
-               -> prepare         canonical frame (+y up, facing +z, one unit tall), private working copy
+    mesh       -> prepare         canonical frame (one unit tall), private working copy
                -> distance_field  adaptive octree of signed distance, winding-number inside/outside
                -> medial_samples  creases of the distance field: the approximate medial surface
                -> pack_spheres    maximal inscribed spheres, largest first
                -> sphere_graph    spheres joined through the interior
+               -> orientation     which axis is up and which way it faces, unless the user said: the
+                                  discretization is carried into that frame (+y up, facing +z)
                -> embed           A* over placements of the template's reduced skeleton
                -> place_on_paths  every template joint along the embedded paths
                -> refine          continuous optimisation of all joints
@@ -27,26 +28,32 @@ from .result import Rig
 @dataclass
 class RigOptions:
     """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z), or "auto"
-    to detect it (see ``autorig.orient``)."""
+    to detect it (see ``autorig.orient``).
+    voxels, max_segments: template "auto" only: grid cells along the longest side of the mesh, and the most
+    bones per extracted chain (see ``autorig.extract``)."""
     up: str = "auto"
     front: str = "auto"
+    voxels: int = 96
+    max_segments: int = 8
 
 
 def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """Rig a mesh with a template skeleton.
 
     mesh: a path (OBJ, PLY, STL, OFF, glTF/GLB) or a pair (vertices [V, 3], faces [F, 3]).
-    template: a built-in template name, a path to a template JSON file, or a ``Template``.
+    template: a built-in template name, a path to a template JSON file, a ``Template``, or "auto" for a
+        skeleton extracted from the shape itself (``autorig.extract``).
     Returns a ``Rig`` in the input's own coordinates, weights for every input vertex in input order.
     """
     from .attach import bone_heat
     from .confidence import rig_confidence
     from .distance import distance_field
     from .embed import embed
+    from .extract import AUTO
     from .graph import sphere_graph
     from .medial import medial_samples, pack_spheres
     from .mesh import check_mesh, load_mesh, prepare
-    from .orient import detect_orientation
+    from .orient import detect_orientation, reorient, working_axes
     from .refine import place_on_paths, refine
     from .template import Template, load_template
 
@@ -57,17 +64,20 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     with stage("load"):
         name = Path(mesh).name if isinstance(mesh, (str, Path)) else "mesh"
         vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, name)
-        template = template if isinstance(template, Template) else load_template(template)
-    with stage("orientation"):
-        frame = detect_orientation(vertices, faces, template, options.up, options.front)
+        template = template if isinstance(template, Template) or template == AUTO else load_template(template)
+    if template == AUTO:
+        return _rig_without_template(vertices, faces, name, options, stage, timings)
     with stage("prepare"):
-        prepared = prepare(vertices, faces, up=frame.up, front=frame.front, name=name)
+        prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name)
     with stage("distance field"):
-        field = distance_field(prepared.work_vertices, prepared.work_faces)
+        field = distance_field(*prepared.coarse())
     with stage("medial spheres"):
         spheres = pack_spheres(medial_samples(field))
     with stage("sphere graph"):
         graph = sphere_graph(field, spheres)
+    with stage("orientation"):
+        frame = detect_orientation(prepared, field, graph, template, options.up, options.front)
+        prepared, field, graph = reorient(prepared, field, graph, frame)
     with stage("embedding"):
         embedding = embed(graph, template)
     with stage("refinement"):
@@ -85,6 +95,41 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded)})
+
+
+def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage, timings) -> Rig:
+    """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
+    same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
+    from .attach import bone_heat
+    from .extract import (connected_medial, control_skeleton, distance_map, inside_graph, medial_surface,
+                          path_tree, skeleton_confidence, voxelize)
+    from .mesh import prepare
+    from .orient import working_axes
+
+    up, front = working_axes(options.up, options.front)
+    with stage("prepare"):
+        prepared = prepare(vertices, faces, up, front, name=name)
+    with stage("voxels"):
+        grid = voxelize(prepared.work_vertices, prepared.work_faces, options.voxels)
+    with stage("distance map"):
+        depth = distance_map(grid, prepared.work_vertices, prepared.work_faces)
+    with stage("medial surface"):
+        medial = connected_medial(inside_graph(depth), medial_surface(depth))
+    with stage("path tree"):
+        tree = path_tree(medial)
+    with stage("control skeleton"):
+        joints, template = control_skeleton(tree, grid, options.max_segments)
+    with stage("skin weights"):
+        weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
+    with stage("confidence"):
+        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
+
+    return Rig(
+        names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
+        weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings,
+        info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
+              "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
+              "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths)})
 
 
 def _stage_timer(timings: dict[str, float]):

@@ -161,26 +161,25 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     vectors = np.zeros((K, 3))
     bone_cost = [None] * K
     C, D = graph.centers, graph.distances
+    # Shared by every bone: path lengths' logs and the unit directions between sphere centres.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_path = np.log(np.maximum(D, 1e-9))
+    offset = C[None, :, :] - C[:, None, :]                                  # [S, S, 3] u -> v
+    norm = np.linalg.norm(offset, axis=2)
+    unit = offset / np.where(norm > 0, norm, 1.0)[:, :, None]
     for k in range(1, K):
         p = reduced.parents[k]
         vectors[k] = tpos[k] - tpos[p]
-        length = reduced.lengths[k]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            log_ratio = np.log(np.maximum(D, 1e-9) / length)
-        cost = WEIGHTS["length"] * log_ratio ** 2
-        offset = C[None, :, :] - C[:, None, :]                              # [S, S, 3] u -> v
-        norm = np.linalg.norm(offset, axis=2)
-        direction = vectors[k] / np.linalg.norm(vectors[k])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cos = np.where(norm > 0, offset @ direction / norm, -1.0)
-        cost = cost + WEIGHTS["direction"] * (1.0 - cos)
+        cost = WEIGHTS["length"] * (log_path - np.log(reduced.lengths[k])) ** 2
+        cos = np.where(norm > 0, unit @ (vectors[k] / np.linalg.norm(vectors[k])), -1.0)
+        cost += WEIGHTS["direction"] * (1.0 - cos)
         if is_foot[k]:
-            cost = cost + feet_cost[None, :]
+            cost += feet_cost[None, :]
         if reduced.joints[k] in fat:
-            cost = cost + thinness[None, :]
+            cost += thinness[None, :]
         mask = np.full((S, S), np.inf)
         mask[np.ix_(candidates[p], candidates[k])] = 0.0
-        cost = cost + mask
+        cost += mask
         cost[~np.isfinite(D)] = np.inf
         bone_cost[k] = cost
     root_cost = np.full(S, np.inf)
@@ -221,46 +220,29 @@ def backtrack_penalty(problem: EmbeddingProblem, k: int, grandparent_sphere: int
     return WEIGHTS["backtrack"] * np.maximum(detour, 0.0) / problem.reduced.lengths[k]
 
 
-class PathOverlap:
-    """Length of the shortest path from a source sphere to every sphere that runs over a set of spheres.
+def shared_length(graph: SphereGraph, source: int, used: np.ndarray) -> np.ndarray:
+    """[S] for every sphere v, the length of the shortest path source -> v that runs over ``used`` spheres
+    ([S] bool): the sum, over the path's edges, of the edge's length when its far end is used.
 
-    For each source u (cached, built on first use) a sparse matrix [S, S] holds, in row v, the length of
-    each edge of the path u -> v at the column of the edge's far sphere; one sparse product with a [S]
-    indicator of used spheres then gives the shared length of all paths from u at once.
+    Sums along the shortest-path tree by pointer doubling: after k rounds every sphere holds the sum over
+    the last 2^k edges of its path, so log2(S) vectorised rounds cover the deepest path.
     """
-
-    def __init__(self, graph: SphereGraph):
-        self.graph = graph
-        self._by_source: dict[int, object] = {}
-
-    def matrix(self, u: int):
-        if u not in self._by_source:
-            from scipy.sparse import csr_matrix
-            g = self.graph
-            S = len(g.radii)
-            predecessor = g.predecessors[u]
-            order = np.argsort(g.distances[u], kind="stable")
-            rows_of: list[list[int]] = [[] for _ in range(S)]
-            rows, cols, vals = [], [], []
-            for v in order[1:]:
-                w = predecessor[v]
-                if w < 0:
-                    break
-                # path(u, v) = path(u, w) + edge (w, v)
-                rows_of[v] = rows_of[w] + [v]
-            edge_to = np.linalg.norm(g.centers - g.centers[np.maximum(predecessor, 0)], axis=1)
-            for v in range(S):
-                rows.extend([v] * len(rows_of[v]))
-                cols.extend(rows_of[v])
-            cols = np.array(cols, dtype=np.int64)
-            vals = edge_to[cols] if len(cols) else np.zeros(0)
-            self._by_source[u] = csr_matrix((vals, (np.array(rows, dtype=np.int64), cols)), shape=(S, S))
-        return self._by_source[u]
+    n = len(graph.radii)
+    parent = graph.predecessors[source].copy()
+    parent[parent < 0] = source                      # the source, and spheres it cannot reach
+    parent[source] = source
+    own = np.where(used, np.linalg.norm(graph.centers - graph.centers[parent], axis=1), 0.0)
+    own[source] = 0.0
+    total, jump = own, parent
+    for _ in range(max(1, int(np.ceil(np.log2(max(n, 2)))))):
+        total = total + total[jump] * (jump != np.arange(n))
+        jump = jump[jump]
+    return total
 
 
-def overlap_penalty(problem: EmbeddingProblem, overlap: PathOverlap, k: int, parent_sphere: int,
-                    used: np.ndarray, spheres: np.ndarray) -> np.ndarray:
+def overlap_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, used: np.ndarray,
+                    spheres: np.ndarray) -> np.ndarray:
     """[N] penalty: length of the path parent -> sphere that runs over ``used`` spheres ([S] bool, the
     spheres on the paths already placed, the parent's own sphere excluded)."""
-    shared = overlap.matrix(parent_sphere)[spheres] @ used.astype(np.float64)
+    shared = shared_length(problem.graph, parent_sphere, used)[spheres]
     return WEIGHTS["overlap"] * shared / problem.reduced.lengths[k]

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import RigFailedError
-from .penalties import EmbeddingProblem, PathOverlap, backtrack_penalty, overlap_penalty, symmetry_penalty
+from .penalties import EmbeddingProblem, backtrack_penalty, overlap_penalty, symmetry_penalty
 
 
 @dataclass
@@ -43,7 +43,6 @@ def search(problem: EmbeddingProblem, max_expansions: int = 20_000) -> Embedding
         raise RigFailedError("the template does not fit this shape: some joint has no place to go "
                              "(too few limbs or extremities in the mesh)")
 
-    overlap = PathOverlap(problem.graph)
     S = len(problem.graph.radii)
     # Spheres on the paths of each expanded state's bones, built from its parent state's.
     used_by_state: dict[tuple[int, ...], np.ndarray] = {(): np.zeros(S, dtype=bool)}
@@ -76,7 +75,7 @@ def search(problem: EmbeddingProblem, max_expansions: int = 20_000) -> Embedding
             cost += symmetry_penalty(problem, k, u, candidates, placed[mirror], placed[parents[mirror]])
         if k > 1:
             here = used & (problem.graph.distances[u] > problem.shared_ok[k])
-            cost += overlap_penalty(problem, overlap, k, u, here, candidates)
+            cost += overlap_penalty(problem, k, u, here, candidates)
         # The estimate for the joints after k: tight for those whose parent is placed (k's children
         # among them, per candidate sphere), loose for the others.
         later = sum(best_given_parent[j][placed[parents[j]]] if parents[j] < k else best_anywhere[j]
