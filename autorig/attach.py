@@ -36,6 +36,7 @@ WELD_TOL = 1e-7         # vertices closer than this (x bounding-box diagonal) ar
 MIN_DIST = 1e-5         # floor of d_i (x diagonal), so a bone touching the surface does not give H = inf
 COT_LIMIT = 100.0       # a face with a larger |cot| (an angle under ~0.6 degrees from 0 or 180) is a sliver
 RAY_NUDGE = 1e-3        # sideways offset of visibility rays, in units of a short edge (see sees_bone)
+HEAT_MAX_VERTICES = 50_000  # denser surfaces are solved on a simplified copy (see _weights_via_coarse_surface)
 _GENERIC_DIRECTION = np.array([0.5377, 0.8335, 0.1274]) / np.linalg.norm([0.5377, 0.8335, 0.1274])
 
 
@@ -72,10 +73,38 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
 
     weld, Vw, Fw = weld_surface(V, F)
     heads, tails = P[parents[bone_child]], P[bone_child]
-    Wb = _bone_weights(Vw, Fw, heads, tails)                         # [U, B] on welded vertices
+    if len(Vw) > HEAT_MAX_VERTICES:
+        Wb = _weights_via_coarse_surface(Vw, Fw, heads, tails)
+    else:
+        Wb = _bone_weights(Vw, Fw, heads, tails)                     # [U, B] on welded vertices
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
     return (Wb @ to_joint)[weld]
+
+
+def _weights_via_coarse_surface(V, F, heads, tails):
+    """Bone weights [U, B] of a dense surface V [U, 3], F [G, 3], solved on a simplified copy of it.
+
+    Heat equilibria are smooth, so a surface of HEAT_MAX_VERTICES vertices resolves them; past that the
+    factorisation and the visibility rays only cost time and memory (a 1M-face scan). Each dense vertex
+    takes the weights at its closest point on the simplified surface, interpolated across that triangle.
+    """
+    import fast_simplification
+    import igl
+
+    coarse_V, coarse_F = fast_simplification.simplify(V, F.astype(np.int32), target_count=2 * HEAT_MAX_VERTICES)
+    coarse_V = np.asarray(coarse_V, dtype=np.float64)
+    coarse_F = np.asarray(coarse_F, dtype=np.int64)
+    W = _bone_weights(coarse_V, coarse_F, heads, tails)
+    tree = igl.AABB()
+    tree.init(coarse_V, coarse_F)
+    _, face, closest = tree.squared_distance(coarse_V, coarse_F, V)
+    corners = coarse_F[face]
+    bary = igl.barycentric_coordinates(closest, coarse_V[corners[:, 0]], coarse_V[corners[:, 1]],
+                                       coarse_V[corners[:, 2]])
+    bary = np.clip(np.nan_to_num(bary, nan=1.0 / 3.0), 0.0, None)
+    bary /= bary.sum(axis=1, keepdims=True)
+    return _clean(np.einsum("nk,nkb->nb", bary, W[corners]))
 
 
 def _check_inputs(V, F, P, parents, owners):

@@ -1,0 +1,133 @@
+"""Whole-process speed and memory of `autorig MESH`, as a user runs it, from 5k to 1M faces.
+
+    python benchmarks/speed.py [--runs 5] [--sizes 5000,20000,60000,200000,1000000] [--shared ../shared]
+
+Meshes: the project's mannequin (autorig.samples, A-pose) and, when ../shared/data is present, armadillo.obj
+and horse.obj, each brought to every size by loop subdivision then quadric decimation to the exact face
+count (built once into a temporary folder). Every run is a fresh `autorig MESH -o OUT.glb -v` process with
+the default options (orientation detected), timed from outside; peak RSS is the child's own (wait4).
+Printed: the median wall time of the runs, the median of each stage's time (from -v), the peak RSS, and
+per stage the exponent b of time ~ faces^b fitted over the sizes. Also `autorig --help` / `--version`.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def sized(vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh subdivided until it has at least ``target`` faces, then decimated to exactly ``target``."""
+    import fast_simplification
+    import trimesh
+    while len(faces) < target:
+        vertices, faces = trimesh.remesh.subdivide(vertices, faces)
+    if len(faces) > target:
+        vertices, faces = fast_simplification.simplify(vertices, faces.astype(np.int32), target_count=target)
+    return np.asarray(vertices, float), np.asarray(faces, np.int64)
+
+
+def build_meshes(folder: Path, sizes: list[int], shared: Path) -> list[tuple[str, int, Path, list[str]]]:
+    """(name, faces, path, extra CLI flags) for every benchmark mesh, written as OBJ into ``folder``."""
+    import trimesh
+    from autorig.mesh import load_mesh
+    from autorig.samples import mannequin
+    sources = [("mannequin", mannequin(pose="a"), [])]
+    for name in ("armadillo", "horse"):
+        path = shared / "data" / "meshes" / f"{name}.obj"
+        if path.is_file():
+            V, F = load_mesh(path)
+            sources.append((name, (V, F), ["--template", "horse"] if name == "horse" else []))
+    out = []
+    for name, source, flags in sources:
+        V, F = (source.vertices, source.faces) if hasattr(source, "vertices") else source
+        for size in sizes:
+            path = folder / f"{name}_{size}.obj"
+            v, f = sized(V, F, size)
+            trimesh.Trimesh(v, f, process=False).export(path)
+            out.append((name, size, path, flags))
+    return out
+
+
+def run(args: list[str]) -> tuple[float, int, str]:
+    """(wall seconds, peak RSS in MB, stderr) of one autorig process; fork + wait4 gives the child's own
+    peak RSS (subprocess would reap it first)."""
+    start = time.perf_counter()
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(read)
+        os.dup2(write, 2)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 1)
+        os.execv(sys.executable, [sys.executable, "-m", "autorig.cli", *args])
+    os.close(write)
+    with os.fdopen(read) as fh:
+        err = fh.read()
+    _, status, usage = os.wait4(pid, 0)
+    seconds = time.perf_counter() - start
+    if os.waitstatus_to_exitcode(status):
+        raise RuntimeError(f"autorig {' '.join(args)} failed: {err.strip()}")
+    return seconds, usage.ru_maxrss // 1024, err
+
+
+def stages(stderr: str) -> dict[str, float]:
+    return {m.group(1).strip(): float(m.group(2)) for m in re.finditer(r"^\s+(.+?)\s+([\d.]+) s$", stderr, re.M)}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--sizes", default="5000,20000,60000,200000,1000000")
+    parser.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
+    args = parser.parse_args(argv)
+    sizes = [int(s) for s in args.sizes.split(",")]
+
+    for flag in ("--help", "--version"):
+        times = [run([flag])[0] for _ in range(args.runs)]
+        print(f"autorig {flag:10s} median {statistics.median(times):.3f} s")
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        rows = []
+        for name, size, path, flags in build_meshes(folder, sizes, args.shared):
+            results = [run([str(path), "-o", str(folder / "out.glb"), "-v", *flags])
+                       for _ in range(args.runs if size < 1_000_000 else max(1, args.runs // 2))]
+            per_stage = {}
+            for _, _, err in results:
+                for stage, seconds in stages(err).items():
+                    per_stage.setdefault(stage, []).append(seconds)
+            rows.append((name, size, statistics.median(r[0] for r in results), max(r[1] for r in results),
+                         {k: statistics.median(v) for k, v in per_stage.items()}))
+
+    stage_names = list(rows[0][4])
+    print(f"\n{'mesh':10s} {'faces':>8s} {'total s':>8s} {'peak MB':>8s}  " +
+          " ".join(f"{s[:12]:>12s}" for s in stage_names))
+    for name, size, total, rss, per_stage in rows:
+        print(f"{name:10s} {size:8d} {total:8.2f} {rss:8d}  " +
+              " ".join(f"{per_stage.get(s, float('nan')):12.3f}" for s in stage_names))
+    print("\ngrowth exponent b (time ~ faces^b), fitted per mesh over the sizes:")
+    for name in dict.fromkeys(r[0] for r in rows):
+        mine = [r for r in rows if r[0] == name]
+        x = np.log([r[1] for r in mine])
+        fits = {"total": np.polyfit(x, np.log([r[2] for r in mine]), 1)[0]}
+        for s in stage_names:
+            y = np.array([r[4].get(s, np.nan) for r in mine])
+            if np.all(y > 1e-3):
+                fits[s] = np.polyfit(x, np.log(y), 1)[0]
+        print(f"  {name:10s} " + ", ".join(f"{k} {v:.2f}" for k, v in fits.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
