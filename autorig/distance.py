@@ -41,14 +41,28 @@ class SurfaceQuery:
             return np.zeros(0)
         return igl.fast_winding_number(self.vertices, self.faces, np.ascontiguousarray(points, dtype=np.float64))
 
-    def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point."""
+    def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
+                known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point.
+
+        known_points [N, 3], known_depth [N]: optionally, for each point a nearby point whose signed depth is
+        known. A point farther from the surface than from its known neighbour is on the same side of the
+        surface (no surface lies within its distance), so only the others need a winding number.
+        """
         points = np.ascontiguousarray(points, dtype=np.float64)
         if len(points) == 0:
             return np.zeros(0), np.zeros((0, 3))
         sq, _, nearest = self._tree.squared_distance(self.vertices, self.faces, points)
-        sign = np.where(self.winding(points) >= 0.5, 1.0, -1.0)
-        return sign * np.sqrt(sq), nearest
+        distance = np.sqrt(sq)
+        sign = np.ones(len(points))
+        if known_points is None:
+            unsure = np.ones(len(points), dtype=bool)
+        else:
+            gap = np.linalg.norm(points - known_points, axis=1)
+            unsure = (gap >= distance) | (known_depth == 0)
+            sign[~unsure] = np.sign(known_depth[~unsure])
+        sign[unsure] = np.where(self.winding(points[unsure]) >= 0.5, 1.0, -1.0)
+        return sign * distance, nearest
 
 
 @dataclass
@@ -202,8 +216,10 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     known_depth = np.zeros(0)
     known_nearest = np.zeros((0, 3))
 
-    def evaluate(corner_index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Depth and nearest point at integer corner coordinates [N, 3] (finest units), cached."""
+    def evaluate(corner_index: np.ndarray, parent_edge: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Depth and nearest point at integer corner coordinates [N, 3] (finest units), cached.
+        parent_edge: edge of the previous level's cells, whose corners are all known; the nearest of them
+        lends its sign to points far enough from the surface (see SurfaceQuery.closest)."""
         nonlocal known_keys, known_depth, known_nearest
         keys = _key(corner_index)
         uniq, inverse = np.unique(keys, return_inverse=True)
@@ -213,7 +229,13 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
         new = uniq[~have]
         if len(new):
             new_index = _unkey(new)
-            d, near = surface.closest(origin + new_index * finest)
+            points = origin + new_index * finest
+            if parent_edge:
+                anchor = np.rint(new_index / parent_edge).astype(np.int64) * parent_edge
+                anchor_depth = known_depth[np.searchsorted(known_keys, _key(anchor))]
+                d, near = surface.closest(points, origin + anchor * finest, anchor_depth)
+            else:
+                d, near = surface.closest(points)
             keys_all = np.concatenate([known_keys, new])
             order = np.argsort(keys_all, kind="stable")
             known_keys = keys_all[order]
@@ -228,14 +250,14 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     for level in range(max_level + 1):
         edge = 2 ** (max_level - level)
         corner_idx = cells[:, None, :] + CORNERS[None, :, :] * edge
-        corner_depth, _ = evaluate(corner_idx.reshape(-1, 3))
+        corner_depth, _ = evaluate(corner_idx.reshape(-1, 3), 2 * edge if level else 0)
         corner_depth = corner_depth.reshape(-1, 8)
         if level == max_level:
             split = np.zeros(len(cells), dtype=bool)
         elif level < min_level:
             split = np.ones(len(cells), dtype=bool)
         else:
-            centre_depth, _ = evaluate(cells + edge // 2)
+            centre_depth, _ = evaluate(cells + edge // 2, edge)
             error = np.abs(corner_depth.mean(axis=1) - centre_depth)
             half_diagonal = np.sqrt(3) / 2 * edge * finest
             # Far outside the mesh nothing downstream needs detail, however curved the field is there.

@@ -8,7 +8,8 @@ an exact gradient:
 =============  ======  ==================================================================================
 term           weight  what it asks
 =============  ======  ==================================================================================
-depth          1.0     each joint at least as deep in the volume as where it started (centred in its limb)
+depth          1.0     each joint at least as deep in the volume as where it started (centred in its limb);
+                       tips (crown, fingertips) no farther out than the surface
 inside         4.0     every bone's segment inside the mesh
 length         1.0     bone lengths as placed on the paths (squared relative change)
 direction      0.3     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
@@ -78,7 +79,7 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
     # Tips sit on the surface on purpose; they neither need depth nor give depth to their bone.
     solid = np.array([not template.is_tip(j) for j in range(J)])
     solid_bone = solid[child]
-    target_depth = np.maximum(field.depth(initial), 0.0)
+    target_depth = np.where(solid, np.maximum(field.depth(initial), 0.0), 0.0)
     rest_length = np.maximum(np.linalg.norm(initial[child] - initial[parent], axis=1), 1e-6)
     template_dir = template.positions[child] - template.positions[parent]
     template_dir /= np.linalg.norm(template_dir, axis=1, keepdims=True)
@@ -92,11 +93,11 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
         grad = np.zeros_like(X)
         total = 0.0
 
-        # depth: joints no shallower than where they started
-        d, gd = field.depth_and_gradient(X[solid])
-        short = np.maximum(target_depth[solid] - d, 0.0) / scale
+        # depth: joints no shallower than where they started; tips at least on the surface
+        d, gd = field.depth_and_gradient(X)
+        short = np.maximum(target_depth - d, 0.0) / scale
         total += TERMS["depth"] * np.sum(short ** 2)
-        grad[solid] += TERMS["depth"] * (-2.0 * short / scale)[:, None] * gd
+        grad += TERMS["depth"] * (-2.0 * short / scale)[:, None] * gd
 
         # inside: sample points along solid bones stay inside
         a, b = X[parent[solid_bone]], X[child[solid_bone]]
