@@ -1,0 +1,111 @@
+"""Stage 5 of the template-free skeleton: the control skeleton (Wade & Parent 2002, section 5).
+
+Each path of the path tree becomes one chain of joints. A chain always has joints at its two ends and where
+later paths join it; between them it is split recursively where a straight bone would fit it worst: the split
+point is the path point that gives the smallest maximum error of the two bones it makes (the error of a bone
+being the largest distance of the path points it replaces from it), which on a single bend is the bend. The
+bone with the largest error is split first, until every bone's error is below SPLIT_TOLERANCE times the mean
+depth of its stretch of path (a bend shallower than that is not worth a joint) or ``max_segments`` - 1 splits
+have been made: a chain has at most ``max_segments`` bones plus one more for each joint where another chain
+hangs (those must be joints, and a chain that many others hang from, like the first one through a spider's
+body, still needs joints along its own limb).
+
+Names are generated and stable: ``root`` (the heart), then for chain c (numbered from 1 in the order the
+paths were grown: farthest extreme point first) ``chain<c>_joint1``, ``chain<c>_joint2``, ... outward, and
+``chain<c>_end`` for its last joint when nothing hangs from it: a tip that carries no bone, as ``_end`` joints
+do in the templates.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..template import Template
+from .paths import PathTree
+from .voxels import VoxelGrid
+
+SPLIT_TOLERANCE = 0.5
+
+
+def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tuple[np.ndarray, Template]:
+    """Joints [J, 3] (canonical frame) and the generated template (names, parents; no symmetry, feet or fat)
+    of the control skeleton of ``tree`` (voxel units of ``grid``), at most ``max_segments`` (>= 1) bones per
+    chain plus one for each joint where another chain hangs."""
+    if max_segments < 1:
+        raise ValueError(f"max_segments must be at least 1, got {max_segments}")
+    attached = np.zeros(len(tree.points), dtype=bool)
+    attached[[int(p[0]) for p in tree.paths]] = True
+    joint_of = {0: 0}                                         # tree point -> joint index
+    names, parents, points, chain_ends = ["root"], [-1], [0], []
+    for c, path in enumerate(tree.paths, start=1):
+        keep = split_chain(tree.points[path], tree.depth[path], np.flatnonzero(attached[path]), max_segments)
+        previous = joint_of[int(path[0])]
+        for k, i in enumerate(keep[1:], start=1):
+            joint_of[int(path[i])] = len(names)
+            names.append(f"chain{c}_joint{k}")
+            parents.append(previous)
+            points.append(int(path[i]))
+            previous = len(names) - 1
+        chain_ends.append((c, previous))
+    parents = np.array(parents, dtype=np.int64)
+    for c, j in chain_ends:
+        if not np.any(parents == j):
+            names[j] = f"chain{c}_end"
+    joints = grid.centres(tree.points[points])
+    template = Template(name="auto", names=tuple(names), parents=parents, positions=joints, symmetry=(),
+                        feet=(), fat=())
+    return joints, template
+
+
+def split_chain(points: np.ndarray, depth: np.ndarray, forced: np.ndarray, max_segments: int) -> np.ndarray:
+    """Indices [S + 1] (ascending, first and last included) of the joints of a chain along a path.
+
+    points [n, 3] the path, depth [n] its EDM, forced [F] indices that must be joints (where other chains
+    hang); see the module docstring for the rule.
+    """
+    keep = sorted({0, len(points) - 1, *map(int, forced)})
+    budget = len(keep) - 1 + max_segments - 1                 # the forced joints do not use up the budget
+    while len(keep) - 1 < budget:
+        # Each bone's error in units of the depth along it: how far the path strays, for the limb's size.
+        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), 1e-9)
+                  for a, b in zip(keep[:-1], keep[1:])]
+        worst = int(np.argmax(scores))
+        a, b = keep[worst], keep[worst + 1]
+        if scores[worst] <= SPLIT_TOLERANCE or b - a < 2:
+            break
+        keep.insert(worst + 1, best_split(points, a, b))
+    return np.array(keep, dtype=np.int64)
+
+
+def segment_error(points: np.ndarray, a: int, b: int) -> float:
+    """Largest distance of points[a..b] from the straight bone points[a] -> points[b]."""
+    return float(_distances_to_segment(points[a:b + 1], points[a], points[b]).max())
+
+
+def best_split(points: np.ndarray, a: int, b: int) -> int:
+    """The index k in (a, b) that minimises max(error of bone a -> k, error of bone k -> b)."""
+    q = points[a:b + 1]
+    m = len(q)
+    # head[i, k]: distance of point i from the bone a -> k, counted for i <= k; tail likewise for k -> b.
+    head = _distance_matrix(q, q[0], q)
+    tail = _distance_matrix(q, q, q[-1])
+    i, k = np.arange(m)[:, None], np.arange(m)[None, :]
+    worst = np.maximum(np.where(i <= k, head, 0.0).max(axis=0), np.where(i >= k, tail, 0.0).max(axis=0))
+    return a + 1 + int(np.argmin(worst[1:-1]))
+
+
+def _distances_to_segment(x: np.ndarray, head: np.ndarray, tail: np.ndarray) -> np.ndarray:
+    """Distances [m] of points x [m, 3] from the segment head -> tail ([3] each)."""
+    e = tail - head
+    t = np.clip((x - head) @ e / max(float(e @ e), 1e-12), 0.0, 1.0)
+    return np.linalg.norm(x - head - t[:, None] * e, axis=1)
+
+
+def _distance_matrix(x: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
+    """[m, K] distance of each point x [m, 3] from each segment heads[k] -> tails[k] (each [3] or [K, 3])."""
+    heads = np.broadcast_to(heads, (len(x), 3)) if np.ndim(heads) == 1 else heads
+    tails = np.broadcast_to(tails, (len(x), 3)) if np.ndim(tails) == 1 else tails
+    e = tails - heads                                                        # [K, 3]
+    ee = np.maximum(np.einsum("kj,kj->k", e, e), 1e-12)
+    rel = x[:, None, :] - heads[None, :, :]                                  # [m, K, 3]
+    t = np.clip(np.einsum("mkj,kj->mk", rel, e) / ee, 0.0, 1.0)
+    return np.linalg.norm(rel - t[..., None] * e[None, :, :], axis=2)

@@ -1,0 +1,84 @@
+"""Stages 1 and 2 of the template-free skeleton: voxelize the solid, then its Euclidean distance map (EDM).
+
+The grid is a box of equal cubes around the mesh in the canonical frame, ``resolution`` cells along the box's
+longest side and one empty layer of cells all round, so that every inside voxel has its 26 neighbours in the
+grid. A voxel is inside when the generalized winding number at its centre is at least 1/2 in magnitude: this
+gives open, self-intersecting and multi-part meshes a meaningful inside, and the magnitude (not the sign)
+keeps parts that face inward solid.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import RigFailedError
+
+
+@dataclass(frozen=True)
+class VoxelGrid:
+    """A voxelized solid.
+
+    origin  [3] canonical position of the centre of voxel (0, 0, 0)
+    step    edge length of a voxel, canonical units (the mesh is one unit tall)
+    inside  [X, Y, Z] bool, voxels whose centre is inside the solid; the outermost layer is always False
+    """
+    origin: np.ndarray
+    step: float
+    inside: np.ndarray
+
+    def centres(self, index: np.ndarray) -> np.ndarray:
+        """Canonical positions [N, 3] of the centres of voxels index [N, 3] (integer grid coordinates)."""
+        return self.origin + np.asarray(index, dtype=np.float64) * self.step
+
+
+def voxelize(vertices: np.ndarray, faces: np.ndarray, resolution: int) -> VoxelGrid:
+    """Inside/outside of every voxel of a grid around the mesh.
+
+    vertices [V, 3], faces [F, 3]: the mesh in the canonical frame. resolution: cells along the bounding box's
+    longest side (>= 8).
+    """
+    import igl
+
+    if resolution < 8:
+        raise ValueError(f"voxel resolution must be at least 8, got {resolution}")
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    step = float((hi - lo).max()) / resolution
+    counts = np.ceil((hi - lo) / step).astype(np.int64) + 2          # +1 cell of margin on each side
+    # Centre the box on the mesh, so a symmetric mesh gets a symmetric voxelization.
+    origin = (lo + hi) / 2 - step * (counts - 1) / 2
+    axes = [origin[k] + step * np.arange(counts[k]) for k in range(3)]
+    centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    winding = igl.fast_winding_number(np.ascontiguousarray(vertices, dtype=np.float64),
+                                      np.ascontiguousarray(faces, dtype=np.int64), centres)
+    inside = (np.abs(winding) >= 0.5).reshape(tuple(counts))
+    # The margin must stay empty; only a winding number gone astray (a wildly open mesh) could fill it.
+    inside[[0, -1], :, :] = inside[:, [0, -1], :] = inside[:, :, [0, -1]] = False
+    if not inside.any():
+        raise RigFailedError(f"no voxel centre is inside the mesh at {resolution} voxels: it is thinner than a "
+                             f"voxel, or not closed; use more voxels")
+    return VoxelGrid(origin, step, inside)
+
+
+def distance_map(grid: VoxelGrid, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """EDM [X, Y, Z] of the voxelized solid: for each inside voxel of ``grid`` the distance (in voxels) from its
+    centre to the mesh (vertices [V, 3], faces [F, 3], canonical frame), 0 outside (and on the surface itself,
+    where a voxel centre counts as outside from here on).
+
+    The distance is the exact one to the triangles (libigl's AABB tree), not the voxel distance transform
+    (scipy's ``distance_transform_edt``, which measures to the nearest outside voxel centre): that one is off
+    by up to ~0.9 voxel depending on how the surface lies across the grid, and the medial test, which compares
+    neighbouring depths, turns those steps into spurious medial voxels all over the surface (at 96 voxels:
+    65 medial pieces instead of 9 on the octopus, 157 instead of 38 on the armadillo). It costs ~0.7 s on
+    60k inside voxels of a 86k-triangle mesh, against 0.06 s.
+    """
+    import igl
+
+    voxels = np.argwhere(grid.inside)
+    tree = igl.AABB()
+    V, F = np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64)
+    tree.init(V, F)
+    squared, _, _ = tree.squared_distance(V, F, grid.centres(voxels))
+    depth = np.zeros(grid.inside.shape)
+    depth[tuple(voxels.T)] = np.sqrt(squared) / grid.step
+    return depth
