@@ -1,0 +1,193 @@
+"""A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it.
+
+    from autorig.preview import render_preview
+    render_preview(rig, "hero.png")                  # the rig's own up/front (rig.info), else +y up, facing +z
+
+The views are orthographic and in the character's own frame (``autorig.mesh.frame_rotation(up, front)``):
+the front view looks at its face, so its left is on the picture's right; the side view looks at its right side,
+so it faces the picture's right. Faces are shaded from the camera and painted far to near; the skeleton is
+drawn on top of the mesh, as if seen through it (bones black, joints red, tips grey), with each weight-carrying
+joint labelled (in the side view only the near, right side and the middle). The legend lists the joints that
+are some vertex's strongest influence, in the colours the mesh uses.
+
+Needs matplotlib (``pip install 'autorig[preview]'``); it is imported only when a picture is drawn.
+"""
+from __future__ import annotations
+
+import os
+from io import BytesIO
+
+import numpy as np
+
+from .mesh import frame_rotation
+from .result import Rig
+
+__all__ = ["render_preview"]
+
+_VIEW_HEIGHT = 7.0   # inches (at 100 dpi) of each view's drawing area
+_MAX_VIEWS_WIDTH = 16.0  # inches for both views together
+_LEGEND_WIDTH = 2.3  # inches per column
+_LEGEND_ROW = 0.24   # inches per entry
+_DPI = 100
+_LABEL_SIZE = 7.5  # points
+
+
+def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, up: str | None = None,
+                   front: str | None = None) -> dict[str, tuple[int, int, int, int]]:
+    """Draw ``rig`` to the PNG file ``path`` (written atomically).
+
+    up, front  the rig's axes (x|y|z|-x|-y|-z); default ``rig.info``'s ``up``/``front``, else y and z
+    title      the heading; default names the template and counts joints and vertices
+    returns    {"front": box, "side": box}: where each view is in the picture, as pixel (left, top, right,
+               bottom), origin top-left
+    Raises ``ImportError`` without matplotlib, ``OutputError`` if ``path`` cannot be written.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from .exchange import write_file_atomic
+
+    frame = frame_rotation(up or rig.info.get("up", "y"), front or rig.info.get("front", "z"))
+    vertices = np.asarray(rig.vertices, dtype=np.float64) @ frame.T   # columns: left, up, front
+    joints = np.asarray(rig.joints, dtype=np.float64) @ frame.T
+    faces = np.asarray(rig.faces, dtype=np.int64)
+    weights = np.asarray(rig.weights, dtype=np.float64)
+    colours = _joint_colours(len(rig.names))
+    face_joint = np.argmax(weights[faces].sum(axis=1), axis=1)   # [F] the joint with most weight on the face
+
+    # Each view: (name, heading, screen x axis, depth axis pointing at the camera) in the frame above.
+    views = [("front", "front", np.array([1.0, 0, 0]), np.array([0, 0, 1.0])),
+             ("side", "side (right)", np.array([0, 0, 1.0]), np.array([-1.0, 0, 0]))]
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    height = max(hi[1] - lo[1], 1e-12)
+    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ axis)) / height for _, _, axis, _ in views]
+    # Long, low shapes would make a very wide picture: shrink both views to fit the width instead.
+    shrink = min(1.0, _MAX_VIEWS_WIDTH / sum(natural))
+    view_height = max(_VIEW_HEIGHT * shrink, 2.5)
+    widths = [max(3.0, w * shrink) for w in natural]
+    shown = np.unique(face_joint)
+    legend_columns = int(np.ceil(len(shown) / max(1, int((view_height - 0.4) / _LEGEND_ROW))))
+    legend_width = _LEGEND_WIDTH * legend_columns
+    figure = Figure(figsize=(sum(widths) + legend_width, view_height + 0.9), dpi=_DPI)
+    FigureCanvasAgg(figure)  # drawn with Agg directly, not through pyplot: the caller's backend stays as it was
+    grid = figure.add_gridspec(1, 3, width_ratios=widths + [legend_width], left=0.01, right=0.99, bottom=0.02,
+                               top=1 - 0.8 / (view_height + 0.9), wspace=0.04)
+    figure.suptitle(title if title is not None else
+                    f"{rig.template or 'rig'}: {len(rig.names)} joints, {len(vertices)} vertices",
+                    fontsize=14, fontweight="bold")
+
+    axes = {}
+    for column, (name, heading, screen_x, toward_camera) in enumerate(views):
+        ax = figure.add_subplot(grid[0, column])
+        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera)
+        ax.set_title(heading, fontsize=11)
+        axes[name] = ax
+    _draw_legend(figure.add_subplot(grid[0, 2]), rig.names, colours, shown, legend_columns)
+
+    figure.canvas.draw()
+    pixel_height = figure.canvas.get_width_height()[1]
+    boxes = {}
+    for name, ax in axes.items():
+        box = ax.get_window_extent()
+        boxes[name] = (int(box.x0), int(pixel_height - box.y1), int(box.x1), int(pixel_height - box.y0))
+    buffer = BytesIO()
+    figure.savefig(buffer, format="png", dpi=_DPI)
+    write_file_atomic(path, buffer.getvalue())
+    return boxes
+
+
+def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, screen_x, toward_camera) -> None:
+    """One orthographic view: shaded faces far to near, then bones, joints and labels over them.
+
+    vertices [V, 3], joints [J, 3]  in the character's frame (left, up, front)
+    faces [F, 3], face_joint [F]    triangles and the joint whose colour (colours [J, 3]) each one takes
+    screen_x, toward_camera [3]     the frame directions drawn rightwards and pointing at the viewer
+    """
+    from matplotlib import patheffects
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    up = np.array([0.0, 1.0, 0.0])
+    screen = np.stack([vertices @ screen_x, vertices @ up], axis=1)        # [V, 2]
+    corners = vertices[faces]                                              # [F, 3, 3]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normals, axis=1)
+    facing = np.abs(normals @ toward_camera) / np.where(length > 0, length, 1.0)
+    # Faces are lit from the camera whichever way they are wound: inward-facing parts still read as solid.
+    shade = 0.35 + 0.65 * facing
+    order = np.argsort(corners.mean(axis=1) @ toward_camera, kind="stable")
+    face_colours = colours[face_joint[order]] * shade[order, None]
+    ax.add_collection(PolyCollection(screen[faces[order]], facecolors=face_colours, edgecolors="none",
+                                     antialiaseds=False, rasterized=True))
+
+    joint_screen = np.stack([joints @ screen_x, joints @ up], axis=1)
+    bones = [(joint_screen[p], joint_screen[j]) for p, j in rig.bones]
+    halo = [patheffects.withStroke(linewidth=4.5, foreground="white")]
+    ax.add_collection(LineCollection(bones, colors="black", linewidths=2.0, path_effects=halo, zorder=3))
+    tips = np.array([name.endswith("_end") for name in rig.names])
+    ax.scatter(*joint_screen[~tips].T, s=36, c="red", edgecolors="black", linewidths=0.8, zorder=4)
+    ax.scatter(*joint_screen[tips].T, s=14, c="0.6", edgecolors="black", linewidths=0.6, zorder=4)
+
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    pad = 0.04 * max(x1 - x0, y1 - y0)
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for spine in ax.spines.values():
+        spine.set_color("0.85")
+    ax.apply_aspect()  # fixes the axes box now, so data -> pixel positions below are final
+    _label_joints(ax, joint_screen, joints @ toward_camera, rig.names, tips, side=toward_camera[0] != 0)
+
+
+def _label_joints(ax, joint_screen: np.ndarray, depth: np.ndarray, names: list[str], tips: np.ndarray,
+                  side: bool) -> None:
+    """Name each weight-carrying joint beside its dot, outward from the body's middle, parents first; a label
+    that would cover an earlier one is left out (in the side view both sides and the arms along the line of
+    sight fall on one another). The side view labels only the camera's side and the middle."""
+    from matplotlib import patheffects
+
+    halo = [patheffects.withStroke(linewidth=2.5, foreground="white")]
+    pixels = ax.transData.transform(joint_screen)
+    centre = float(np.median(pixels[:, 0]))
+    gap = 6 * _DPI / 72                       # the label's offset from its dot: 6 points
+    char_width, line_height = 0.6 * _LABEL_SIZE * _DPI / 72, 1.3 * _LABEL_SIZE * _DPI / 72
+    near_side = float(np.median(depth)) - 0.02 * max(float(np.ptp(depth)), 1e-12)
+    placed: list[tuple[float, float, float, float]] = []
+    for j, name in enumerate(names):
+        if tips[j] or (side and depth[j] < near_side):
+            continue
+        x, y = pixels[j]
+        right = x >= centre
+        width = char_width * len(name)
+        box = (x + gap, y - line_height / 2, x + gap + width, y + line_height / 2) if right else \
+            (x - gap - width, y - line_height / 2, x - gap, y + line_height / 2)
+        if any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+            continue
+        placed.append(box)
+        ax.annotate(name, joint_screen[j], xytext=(6 if right else -6, 0), textcoords="offset points",
+                    ha="left" if right else "right", va="center", fontsize=_LABEL_SIZE, path_effects=halo,
+                    zorder=5)
+
+
+def _draw_legend(ax, names: list[str], colours: np.ndarray, shown: np.ndarray, columns: int) -> None:
+    """The legend: one swatch per joint that colours some face, in ``columns`` columns."""
+    from matplotlib.patches import Patch
+
+    ax.axis("off")
+    handles = [Patch(facecolor=colours[j], edgecolor="0.3", label=names[j]) for j in shown]
+    ax.legend(handles=handles, loc="upper left", fontsize=8.5, title="strongest joint", title_fontsize=9,
+              frameon=False, ncols=columns)
+
+
+def _joint_colours(count: int) -> np.ndarray:
+    """[count, 3] RGB colours, neighbouring indices far apart in hue and lightness."""
+    from matplotlib import colormaps
+
+    # tab20 pairs a strong and a pale version of each hue: strong ones first, so the first ten joints (the
+    # trunk and one side of a skeleton, parents first) never share a hue.
+    tab20 = np.asarray(colormaps["tab20"].colors)
+    palette = np.concatenate([tab20[0::2], tab20[1::2], np.asarray(colormaps["tab20b"].colors),
+                              np.asarray(colormaps["tab20c"].colors)])
+    return palette[np.arange(count) % len(palette)]

@@ -1,0 +1,78 @@
+"""A real client: Blender imports autorig's .glb, finds the rig, and the mesh moves with its bones.
+
+Runs tests/blender_check.py inside headless Blender (Debian's ``blender`` package; see .ci/run). Skipped when
+there is no ``blender`` on PATH.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rig_samples import mannequin_bvh, rigged_mannequin
+from test_pose import MOVES, POSES
+
+from autorig.exchange.animated_gltf import write_animated_glb
+from autorig.exchange.bvh import parse_bvh
+from autorig.exchange.gltf import top4_influences, write_glb
+from autorig.pose import retarget, skin
+
+BLENDER = shutil.which("blender")
+SCRIPT = Path(__file__).with_name("blender_check.py")
+
+pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender is not installed (apt-get install blender)")
+
+
+def blender_report(path: Path, bone: str, frame: int | None = None) -> dict:
+    command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT), "--",
+               str(path), bone] + ([str(frame)] if frame is not None else [])
+    # Debian's Blender embeds the system Python and finds its home through the first python3 on PATH: put the
+    # one beside blender first, not a virtual environment's or pyenv's, which lack Blender's numpy.
+    env = dict(os.environ, PATH=os.pathsep.join([os.path.dirname(os.path.realpath(BLENDER)), os.environ["PATH"]]))
+    run = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
+    lines = [line for line in run.stdout.splitlines() if line.startswith("AUTORIG_BLENDER ")]
+    assert run.returncode == 0 and lines, run.stdout[-3000:] + run.stderr[-3000:]
+    return json.loads(lines[0].split(" ", 1)[1])
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return rigged_mannequin()[1]
+
+
+def test_blender_imports_the_rig_and_the_mesh_follows_a_bone(rig, tmp_path):
+    path = tmp_path / "hero.glb"
+    write_glb(rig, path)
+    report = blender_report(path, "left_elbow")
+    assert report["armatures"] == 1 and report["meshes"] == 1
+    assert sorted(report["bones"]) == sorted(rig.names)
+    slots, amounts = top4_influences(rig.weights)
+    weighted = {rig.names[j] for j in np.unique(slots[amounts > 0])}
+    assert set(report["weighted"]) == weighted  # one vertex group with weights per weighted joint
+    assert set(report["groups"]) <= set(rig.names)
+    assert report["modifier"]
+    assert report["height"] == pytest.approx(np.ptp(rig.vertices[:, 1]), rel=1e-4)  # glTF +y is Blender's +z
+    # Turning the elbow 90 degrees swings the forearm; nothing outside the arm from the elbow down moves.
+    assert report["moved_follow"] > 0.1
+    assert report["moved_other"] < 1e-5
+
+
+def test_blender_plays_the_animation_as_autorig_skins_it(rig, tmp_path):
+    motion = parse_bvh(mannequin_bvh(POSES, MOVES))  # one frame per Blender frame (24 per second)
+    animation = retarget(rig, motion)
+    path = tmp_path / "moves.glb"
+    write_animated_glb(rig, animation, path, name="moves")
+    report = blender_report(path, "left_elbow", frame=1)
+    (name, (start, end, rotations, locations)), = report["actions"].items()
+    assert name.startswith("moves") and (start, end) == pytest.approx((0, 2), abs=1e-4)
+    assert rotations == 4 * animation.animated.sum() and locations == 3
+    # Frame 1 bends the left knee and carries the root 0.5 m forward; Blender's box of the posed mesh is ours
+    # (Blender's x, y, z are glTF's x, -z, y).
+    ours = skin(rig, animation.rotations[1], animation.positions[1])
+    ours = np.stack([ours[:, 0], -ours[:, 2], ours[:, 1]], axis=1)
+    assert np.allclose(report["box_at_frame"], [ours.min(axis=0), ours.max(axis=0)], atol=2e-3)
+    assert report["moved_at_frame"] > 0.5

@@ -1,0 +1,120 @@
+"""Pictures of a rig (autorig.preview, `autorig preview`, `autorig --preview`)."""
+from __future__ import annotations
+
+import importlib.util
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from rig_samples import rigged_mannequin
+
+from autorig import pipeline
+from autorig.cli import cli
+from autorig.exchange.gltf import write_glb
+from autorig.mesh import frame_rotation
+
+pytest.importorskip("matplotlib", reason="the preview extra (matplotlib) is not installed")
+from PIL import Image  # noqa: E402  (Pillow comes with matplotlib)
+
+from autorig.preview import render_preview  # noqa: E402
+
+TETRA_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return rigged_mannequin()[1]
+
+
+def pixels(path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB"))
+
+
+def crop(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    left, top, right, bottom = box
+    return image[top:bottom, left:right]
+
+
+def test_two_views_of_a_coloured_mesh_with_its_skeleton(rig, tmp_path):
+    path = tmp_path / "hero.png"
+    boxes = render_preview(rig, path)
+    image = pixels(path)
+    height, width = image.shape[:2]
+    assert path.stat().st_size > 20_000
+    assert 900 <= width <= 2600 and 600 <= height <= 1000
+    assert list(boxes) == ["front", "side"]
+    front, side = boxes["front"], boxes["side"]
+    assert front[2] < side[0]  # side by side, front first
+    for left, top, right, bottom in boxes.values():
+        assert 0 <= left < right <= width and 0 <= top < bottom <= height
+        assert bottom - top > 0.7 * height
+    for box in boxes.values():
+        view = crop(image, box).reshape(-1, 3).astype(int)
+        # Shaded faces in many colours, the skeleton's black bones and red joints over them.
+        assert len(np.unique(view // 16, axis=0)) > 40
+        assert np.sum(np.all(view < 40, axis=1)) > 200
+        assert np.sum((view[:, 0] > 200) & (view[:, 1] < 60) & (view[:, 2] < 60)) > 50
+    # The front view of a T-pose is wider than the side view; the legend lies to the right of both.
+    assert front[2] - front[0] > side[2] - side[0]
+    legend = image[:, side[2]:].reshape(-1, 3).astype(int)
+    assert len(np.unique(legend // 16, axis=0)) > 15
+
+
+def test_the_picture_follows_the_rigs_own_frame(rig, tmp_path):
+    """The same character stored Z-up and facing -y gives the same picture."""
+    rotation = frame_rotation("z", "-y").T  # canonical -> input coordinates
+    turned = replace(rig, vertices=rig.vertices @ rotation.T, joints=rig.joints @ rotation.T,
+                     info={**rig.info, "up": "z", "front": "-y"})
+    render_preview(rig, tmp_path / "a.png", title="same")
+    render_preview(turned, tmp_path / "b.png", title="same")
+    render_preview(turned, tmp_path / "c.png", title="same", up="y", front="z")
+    assert np.array_equal(pixels(tmp_path / "a.png"), pixels(tmp_path / "b.png"))
+    assert not np.array_equal(pixels(tmp_path / "a.png"), pixels(tmp_path / "c.png"))
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args], prog_name="autorig")
+
+
+def test_preview_command(rig, tmp_path):
+    write_glb(rig, tmp_path / "hero.glb")
+    result = run("preview", tmp_path / "hero.glb")
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == f"{tmp_path / 'hero.glb'}: 24 joints, {len(rig.vertices)} vertices -> " \
+                                    f"{tmp_path / 'hero.png'}"
+    assert pixels(tmp_path / "hero.png").shape[1] > 900
+    result = run("preview", tmp_path / "hero.glb", "-o", tmp_path / "other.png", "--title", "Hero", "-q")
+    assert result.exit_code == 0 and result.stdout == ""
+    assert (tmp_path / "other.png").exists()
+
+
+def test_preview_command_errors(tmp_path):
+    result = run("preview", tmp_path / "absent.glb")
+    assert result.exit_code == 2 and result.stderr.startswith("autorig: error: cannot read")
+    (tmp_path / "hero.glb").write_bytes(b"glTF")
+    result = run("preview", tmp_path / "hero.glb", "-o", tmp_path / "hero.glb")
+    assert result.exit_code == 4 and "would overwrite the input" in result.stderr
+
+
+@pytest.mark.parametrize("fmt, picture", [("glb", "hero.rigged.png"), ("pinocchio", "hero.rigged.png"),
+                                          ("json", "hero.rigged.png")])
+def test_rig_preview_flag(rig, tmp_path, monkeypatch, fmt, picture):
+    monkeypatch.setattr(pipeline, "rig", lambda mesh, template="biped", options=None: rig)
+    (tmp_path / "hero.obj").write_text(TETRA_OBJ)
+    result = run(tmp_path / "hero.obj", "--preview", "--format", fmt)
+    assert result.exit_code == 0, result.output
+    assert result.stdout.rstrip().endswith(f"(preview {tmp_path / picture})")
+    assert pixels(tmp_path / picture).shape[0] > 600
+
+
+def test_missing_matplotlib_fails_before_rigging(tmp_path, monkeypatch):
+    calls = []
+    monkeypatch.setattr(pipeline, "rig", lambda *args, **kwargs: calls.append(args))
+    real_find_spec = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *args: None if name == "matplotlib" else real_find_spec(name, *args))
+    (tmp_path / "hero.obj").write_text(TETRA_OBJ)
+    result = run(tmp_path / "hero.obj", "--preview")
+    assert result.exit_code == 1 and calls == []
+    assert result.stderr.strip() == "autorig: error: --preview needs matplotlib: pip install 'autorig[preview]'"
