@@ -4,6 +4,10 @@
     autorig hero.obj --template quadruped -o out/hero.json
     autorig rig hero.obj ...                # the same: ``rig`` is the default command
     autorig templates                       # list the built-in templates
+    autorig batch assets/ -o rigged/        # every mesh in a folder (autorig.batch)
+    autorig hero.obj --preview              # also hero.rigged.png: front and side views (autorig.preview)
+    autorig preview hero.rigged.glb         # the same picture of an existing rig
+    autorig pose hero.rigged.glb -m walk.bvh -o walk.glb    # retarget a BVH motion (autorig.pose)
 
 Start-up must stay fast (``autorig --help`` well under 0.3 s): at module level import only click, the standard
 library and ``autorig``'s own light modules; numpy, trimesh, libigl and the pipeline load inside the commands.
@@ -24,6 +28,8 @@ from .errors import AutorigError, OutputError
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
 # Must match autorig.exchange.FORMATS (a test checks); repeated here so --help need not import numpy.
 FORMATS = ["glb", "gltf", "pinocchio", "json"]
+# Must match autorig.extract.AUTO (a test checks): the template name of template-free skeletons.
+AUTO_TEMPLATE = "auto"
 FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json"}
 
 EXIT_INTERNAL = 70   # EX_SOFTWARE from BSD sysexits: a bug in autorig
@@ -38,6 +44,7 @@ Exit codes:
   4    output cannot be written
   5    the mesh was read but could not be rigged
   6    --strict: the rig's confidence is below the threshold (nothing written)
+  7    batch: some assets could not be rigged (the others were; see the report)
   70   internal error (a bug: run with --debug and report it)
   130  interrupted (Ctrl-C)"""
 
@@ -118,13 +125,17 @@ def cli():
       autorig MESH [OPTIONS]    rig a mesh; short for 'autorig rig MESH [OPTIONS]'
                                 (see 'autorig rig --help' for the options)
       autorig templates         list the built-in templates
+      autorig batch DIR -o OUT  rig every mesh in a folder (see 'autorig batch --help')
+      autorig preview RIG       draw a rig file to a PNG
+      autorig pose RIG -m BVH   move a rig file with a BVH motion
     """
 
 
 @cli.command("rig", epilog=EXIT_CODES, short_help="Rig a mesh (the default command).")
 @click.argument("mesh", metavar="MESH")
 @click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",
-              help="Built-in template name (see 'autorig templates') or a template .json file.")
+              help="Built-in template name (see 'autorig templates'), a template .json file, or auto: a "
+                   "skeleton made from the mesh's own shape, for creatures no template fits.")
 @click.option("-o", "--output", metavar="PATH",
               help="Where to write the rig. [default: beside MESH, e.g. hero.obj -> hero.rigged.glb]")
 @click.option("-f", "--format", "fmt", type=click.Choice(FORMATS),
@@ -137,11 +148,18 @@ def cli():
                    "clearly says otherwise).")
 @click.option("--strict", is_flag=True,
               help="Write nothing and exit with code 6 when the rig's confidence is below the threshold.")
+@click.option("--preview", is_flag=True,
+              help="Also draw the rig to a PNG beside the output (hero.rigged.glb -> hero.rigged.png); "
+                   "needs matplotlib (pip install 'autorig[preview]').")
+@click.option("--voxels", type=click.IntRange(min=8), default=96, show_default=True, metavar="N",
+              help="--template auto: voxels along the mesh's longest side (finer finds thinner limbs).")
+@click.option("--max-segments", type=click.IntRange(min=1), default=8, show_default=True, metavar="N",
+              help="--template auto: the most bones per chain (limb), plus one for each chain hanging from it.")
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
-                strict: bool, verbose: bool, quiet: bool):
+                strict: bool, preview: bool, voxels: int, max_segments: int, verbose: bool, quiet: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result.
 
     On success prints one line: the mesh, template, joint and vertex counts, time and output path.
@@ -154,7 +172,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     from .template import load_template
 
     mesh_path = check_mesh_path(mesh)
-    skeleton = load_template(template)
+    skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if "auto" not in (up, front):
         frame_rotation(up, front)  # rejects up parallel to front before any slow work
     if output:
@@ -162,22 +180,32 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     fmt = fmt or _format_of(output)
     out_path = Path(output) if output else default_output_path(mesh_path, fmt)
     _check_output(out_path, fmt)
+    if preview:
+        _require_matplotlib("--preview")
 
     from .confidence import STRICT_THRESHOLD
     from .errors import LowConfidenceError
     from .pipeline import RigOptions, rig
     with _library_noise(shown=verbose):
-        result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front))
+        result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels,
+                                                          max_segments=max_segments))
         confidence = result.info["confidence"]
         if strict and confidence < STRICT_THRESHOLD:
             raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
                                      f"({_weakest(result.info['confidence_parts'])}); nothing written")
         write_start = time.perf_counter()
         write_rig(result, out_path, fmt, input_path=mesh_path)
+        written = time.perf_counter()
+        if preview:
+            from .preview import render_preview
+            preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
+            render_preview(result, preview_path, title=_preview_title(mesh_path.name, result))
     end = time.perf_counter()
 
     if verbose:
-        timings = {**result.timings, "write": end - write_start}
+        timings = {**result.timings, "write": written - write_start}
+        if preview:
+            timings["preview"] = end - written
         width = max(map(len, timings))
         for stage, seconds in timings.items():
             click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
@@ -186,13 +214,14 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         if result.info["axes_detected"]:
             axes += " (detected)"
         click.echo(f"{mesh}: {result.template}, {len(result.names)} joints, {len(result.vertices)} vertices, "
-                   f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}")
+                   f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}"
+                   + (f" (preview {preview_path})" if preview else ""))
 
 
 @cli.command("templates", short_help="List the built-in templates.")
 @_common_options
 def templates_command():
-    """List the built-in templates: name, number of joints, description."""
+    """List the built-in templates: name, number of joints, description; and auto, the template-free skeleton."""
     import json
     from importlib import resources
 
@@ -202,6 +231,187 @@ def templates_command():
         joints = len(load_template(name).names)
         data = json.loads(resources.files("autorig.templates").joinpath(name + ".json").read_text())
         click.echo(f"{name:<12} {joints:3d} joints  {data.get('description', '')}")
+    click.echo(f"{AUTO_TEMPLATE:<12} any joints  No template: a skeleton made from the mesh's own shape, one chain per "
+               f"limb, for any creature (Wade & Parent 2002; see --voxels, --max-segments).")
+
+
+# Axes of an existing rig file: the file does not record them, so no detection.
+RIG_AXES = [axis for axis in AXES if axis != "auto"]
+
+
+@cli.command("preview", epilog=EXIT_CODES, short_help="Draw a rig file to a PNG.")
+@click.argument("rig_file", metavar="RIG")
+@click.option("-o", "--output", metavar="PATH",
+              help="Where to write the PNG. [default: beside RIG, e.g. hero.rigged.glb -> hero.rigged.png]")
+@click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False), default="y", show_default=True,
+              help="The rig's up axis.")
+@click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False), default="z", show_default=True,
+              help="The axis the character faces.")
+@click.option("--title", metavar="TEXT", help="The picture's heading. [default: file name, template, counts]")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
+@_common_options
+def preview_command(rig_file: str, output: str | None, up: str, front: str, title: str | None, quiet: bool):
+    """Draw the skinned mesh in RIG (.glb or .gltf, e.g. autorig's output) to a PNG: front and side views
+    coloured by each vertex's strongest joint, the skeleton and joint names over them. Needs matplotlib
+    (pip install 'autorig[preview]')."""
+    _require_matplotlib("autorig preview")
+    from .exchange.gltf import read_glb
+    from .mesh import frame_rotation
+    from .preview import render_preview
+
+    frame_rotation(up, front)
+    rig_path = Path(rig_file)
+    out_path = Path(output) if output else rig_path.with_suffix(".png")
+    _refuse_input(out_path, rig_path)
+    _check_output(out_path, "png")
+    with _library_noise(shown=False):
+        rig = read_glb(rig_path)
+        render_preview(rig, out_path, title=title if title is not None else _preview_title(rig_path.name, rig),
+                       up=up, front=front)
+    if not quiet:
+        click.echo(f"{rig_file}: {len(rig.names)} joints, {len(rig.vertices)} vertices -> {out_path}")
+
+
+@cli.command("pose", epilog=EXIT_CODES, short_help="Move a rig file with a BVH motion.")
+@click.argument("rig_file", metavar="RIG")
+@click.option("-m", "--motion", required=True, metavar="BVH", help="The motion to retarget (.bvh).")
+@click.option("-o", "--output", metavar="PATH",
+              help="The animated rig (.glb), or with --frame the posed mesh (.obj). [default: beside RIG, "
+                   "e.g. hero.rigged.walk.glb, hero.rigged.walk.12.obj]")
+@click.option("--frame", type=click.IntRange(min=0), metavar="N",
+              help="Write only frame N (from 0) of the motion, as a deformed mesh.")
+@click.option("--dqs", is_flag=True,
+              help="With --frame: dual quaternion skinning (keeps twisted joints' volume) instead of linear "
+                   "blend skinning, which is what glTF viewers do.")
+@click.option("--map", "map_file", metavar="JSON",
+              help="Joint map file {rig joint: motion joint, or null}, applied over the built-in table "
+                   "(CMU and mixamo names, for the biped template).")
+@click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False), default="y", show_default=True,
+              help="The rig's up axis.")
+@click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False), default="z", show_default=True,
+              help="The axis the character faces.")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
+@_common_options
+def pose_command(rig_file: str, motion: str, output: str | None, frame: int | None, dqs: bool,
+                 map_file: str | None, up: str, front: str, quiet: bool):
+    """Retarget the BVH motion onto the rig in RIG (.glb or .gltf, e.g. autorig's output) by joint names and
+    write the rig animated (.glb: each joint's rotation and the root's translation, at the motion's frame
+    times), or one frame's deformed mesh (--frame N, .obj). Motion is scaled to the rig's hip height.
+
+    On success prints one line: how many joints were mapped, the frames, and the output path.
+    """
+    if dqs and frame is None:
+        raise click.UsageError("--dqs applies to --frame: an animated glTF is skinned by its viewer")
+    suffix = ".obj" if frame is not None else ".glb"
+    rig_path, motion_path = Path(rig_file), Path(motion)
+    if output is None:
+        stem = f"{rig_path.stem}.{motion_path.stem}" + (f".{frame}" if frame is not None else "")
+        out_path = rig_path.with_name(stem + suffix)
+    else:
+        out_path = Path(output)
+        if out_path.suffix.lower() != suffix:
+            raise click.UsageError(f"cannot write {output!r}: the animated rig is a .glb file, a single frame "
+                                   f"(--frame N) an .obj file")
+    for source in (rig_path, motion_path):
+        _refuse_input(out_path, source)
+    _check_output(out_path, suffix.lstrip("."))
+
+    from .exchange.bvh import read_bvh
+    from .exchange.gltf import read_glb
+    from .mesh import frame_rotation
+    from .pose import joint_map, read_map, retarget
+
+    frame_rotation(up, front)
+    with _library_noise(shown=False):
+        rig = read_glb(rig_path)
+        moves = read_bvh(motion_path)
+        if frame is not None and frame >= len(moves.frames):
+            raise click.BadParameter(f"{frame}: the motion has {len(moves.frames)} frames (0 to "
+                                     f"{len(moves.frames) - 1})", param_hint="'--frame'")
+        mapping = joint_map(rig.names, moves.names, read_map(map_file) if map_file else None)
+        animation = retarget(rig, moves, mapping, up=up, front=front)
+        if frame is None:
+            from .exchange.animated_gltf import write_animated_glb
+            write_animated_glb(rig, animation, out_path, name=motion_path.stem)
+        else:
+            from .exchange.obj import write_obj
+            from .pose import skin
+            write_obj(skin(rig, animation.rotations[frame], animation.positions[frame], dqs=dqs), rig.faces,
+                      out_path)
+    if not quiet:
+        what = f"frame {frame} of {len(moves.frames)}" if frame is not None else f"{len(moves.frames)} frames"
+        click.echo(f"{motion}: {len(mapping)} of {len(rig.names)} rig joints mapped, {what} -> {out_path}")
+
+
+# Must match autorig.batch.DEFAULT_EXTENSIONS (a test checks); repeated here so --help imports nothing.
+BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
+
+
+@cli.command("batch", epilog=EXIT_CODES, short_help="Rig every mesh in a folder.")
+@click.argument("input_dir", metavar="INPUT_DIR")
+@click.option("-o", "--output", "output_dir", required=True, metavar="OUTPUT_DIR",
+              help="Folder for the rigs; INPUT_DIR's folder structure is mirrored inside it.")
+@click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",
+              help="Template for assets that no autorig.toml gives one.")
+@click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
+              help="Up axis for assets that no autorig.toml gives one.")
+@click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
+              help="Front axis for assets that no autorig.toml gives one.")
+@click.option("-f", "--format", "fmt", type=click.Choice(FORMATS), default="glb", show_default=True,
+              help="Output format.")
+@click.option("--ext", default=BATCH_EXTENSIONS, show_default=True, metavar="EXT,...",
+              help="File extensions that count as meshes.")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), metavar="N",
+              help="Worker processes. [default: the number of CPUs]")
+@click.option("--scheduler", metavar="tcp://HOST:PORT",
+              help="Run on this Dask distributed scheduler instead (pip install 'autorig[cluster]').")
+@click.option("--force", is_flag=True, help="Rig every asset, even those unchanged since the last run.")
+@click.option("--report", metavar="PATH", help="Write a JSON report here.")
+@click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
+@click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
+@_common_options
+def batch_command(input_dir: str, output_dir: str, template: str, up: str, front: str, fmt: str, ext: str,
+                  jobs: int | None, scheduler: str | None, force: bool, report: str | None, junit: str | None,
+                  quiet: bool):
+    """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
+
+    \b
+    Options per file or folder come from autorig.toml files beside the assets:
+      template = "quadruped"          # this folder and below
+      [files."horse*.obj"]            # matching files (globs)
+      template = "horse"
+      up = "z"
+      front = "y"
+    the nearest file winning (see the README). Assets unchanged since the last run (same content, options
+    and autorig version) are skipped unless --force. A failing asset does not stop the others: it is
+    reported, and the exit code is 7. Progress goes to stderr (a bar on a terminal, else one line per
+    asset); a summary line to stdout.
+    """
+    if jobs is not None and scheduler:
+        raise click.UsageError("-j/--jobs does not apply with --scheduler: the cluster's workers decide")
+    extensions = [e.strip().lstrip(".") for e in ext.split(",") if e.strip()]
+    from .mesh import FORMATS as MESH_FORMATS
+    unknown = sorted({e for e in extensions if "." + e.lower() not in MESH_FORMATS})
+    if unknown or not extensions:
+        raise click.UsageError(f"--ext: autorig reads {', '.join(s[1:] for s in sorted(MESH_FORMATS))}"
+                               + (f", not {', '.join(unknown)}" if unknown else ""))
+
+    from .batch import rig_folder
+    from .batch_progress import BatchProgress
+    from .pipeline import RigOptions
+
+    progress = BatchProgress(quiet=quiet)
+    try:
+        result = rig_folder(input_dir, output_dir, template, RigOptions(up=up.lower(), front=front.lower()),
+                            fmt=fmt, extensions=extensions, jobs=jobs, scheduler=scheduler, force=force,
+                            report=report, junit=junit, on_start=progress.on_start, on_result=progress.on_result)
+    finally:
+        progress.close()
+    if not quiet:
+        counts = result.counts
+        click.echo(f"{len(result.assets)} assets: {counts['ok']} rigged, {counts['failed']} failed, "
+                   f"{counts['skipped']} unchanged, {result.seconds:.1f} s -> {output_dir}")
+    click.get_current_context().exit(result.exit_code)
 
 
 def _weakest(parts: dict[str, float]) -> str:
@@ -242,6 +452,19 @@ def _check_output(out: Path, fmt: str) -> None:
         raise OutputError(f"cannot write {out}: permission denied in {parent}")
     if fmt != "pinocchio" and out.is_dir():
         raise OutputError(f"cannot write {out}: it is a directory")
+
+
+def _require_matplotlib(what: str) -> None:
+    """Fail at once, before any slow work, if the optional matplotlib (the ``preview`` extra) is missing."""
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        raise AutorigError(f"{what} needs matplotlib: pip install 'autorig[preview]'")
+
+
+def _preview_title(name: str, rig) -> str:
+    """The heading of a rig's picture: file name, template and counts."""
+    return f"{name}: {rig.template or 'rig'}, {len(rig.names)} joints, {len(rig.vertices)} vertices"
 
 
 @contextlib.contextmanager

@@ -1,0 +1,837 @@
+"""Rig every mesh in a folder: in parallel on this machine or on a Dask cluster, resumable, with reports.
+
+    from autorig.batch import rig_folder
+    result = rig_folder("assets/", "rigged/", "biped", jobs=2, report="report.json", junit="report.xml")
+    result.exit_code, [(a.input, a.status, a.error) for a in result.assets]
+
+The command line is ``autorig batch INPUT_DIR -o OUTPUT_DIR`` (``autorig batch --help``).
+
+Finding the work
+    Every file under ``input_dir`` (recursively; hidden files and folders, and ``output_dir`` when it lies
+    inside ``input_dir``, are left out; symlinked folders are not followed) whose extension is one of
+    ``extensions`` is an asset. Results and reports list assets in the order of their relative paths,
+    compared folder by folder; rigging starts with the largest inputs, the slow ones, so that no worker is
+    left with a big mesh at the end while the others idle. Each asset's output mirrors its place:
+    ``input_dir/a/hero.obj`` -> ``output_dir/a/hero.rigged.glb``; two inputs in one folder with the same stem
+    (``hero.obj``, ``hero.ply``) keep their extension in the output name instead (``hero.obj.rigged.glb``,
+    ``hero.ply.rigged.glb``).
+
+Per-asset options: ``autorig.toml`` (or ``autorig.json``) in ``input_dir`` or any folder below it::
+
+    template = "quadruped"        # defaults for every asset in this folder and below
+    up = "y"
+    front = "x"
+
+    [files."horse*.obj"]          # assets matching a glob, relative to this file's folder
+    template = "horse"
+    up = "z"
+    front = "y"
+
+    [files."bipeds/*"]
+    template = "biped"
+    front = "z"
+
+The JSON form is the same document: ``{"template": "quadruped", "files": {"horse*.obj": {"template": "horse"}}}``.
+Keys are ``template`` (a built-in name, or a ``.json`` template file relative to the config's folder), ``up``
+and ``front`` (``x``, ``-z``, ... or ``auto`` to detect it, as on the command line). A glob without ``/``
+matches the file name in this folder or any folder below; a glob with ``/`` matches the path relative to the
+config's folder; ``*`` also matches ``/``; matching is case-sensitive. Options cascade as in EditorConfig,
+each key on its own: the command line's ``--template``, ``--up`` and ``--front`` first, then each config from
+``input_dir`` down to the asset's folder (so the nearest config wins), and within one config its top-level
+keys, then the matching ``files`` entries in the order written (a later match wins). A malformed config, an
+unknown key or template, or a bad axis stops the batch before any rigging (``ConfigError``,
+``TemplateError``).
+
+Resuming
+    ``output_dir/.autorig-batch.json`` (the manifest) keeps, per asset, a key: the SHA-256 of the input's
+    bytes (a ``.gltf`` with the buffers and images it names), of the effective template's content, up, front,
+    the output format and the autorig version. An asset whose key is unchanged is skipped (status
+    ``skipped``, ``previous`` telling how it went) unless ``force``; that holds for failures too, since
+    rigging is deterministic: an unchanged asset fails the same way again. A skipped asset that had rigged is
+    skipped only while its output still exists. Crashed or lost workers and internal errors are not
+    remembered, so a rerun tries those assets again. Entries of assets no longer found stay (a narrower
+    ``extensions`` must not forget them). Outputs are written without timings (they go to the
+    report instead), so rigging the same asset again, here or on a cluster, gives byte-identical files.
+
+Failures
+    One failing asset never stops the batch: it gets status ``failed`` and its one-line error. An asset that
+    rigged before and fails now loses its old output, which no longer matches its input.
+    ``BatchResult.exit_code`` is 0 when every asset is rigged (now or in an earlier run) and
+    ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run.
+
+Parallelism
+    Locally, a process pool of ``jobs`` workers started with 'spawn' (forking a process that has threads is
+    unsafe). With ``scheduler="tcp://host:port"`` the assets go to an existing Dask distributed cluster
+    (``pip install 'autorig[cluster]'``); its workers need the same autorig version, and read and write no
+    files: the inputs' bytes travel with the tasks and the outputs' bytes come back, so the cluster needs no
+    shared file system and this process alone writes into ``output_dir``. Worker processes run numerical
+    libraries with one thread each (OMP/MKL/OPENBLAS_NUM_THREADS=1 unless already set, as Dask's own nanny
+    does): it avoids oversubscribing the cores, is faster per rig even alone, and keeps local and cluster
+    results alike.
+"""
+from __future__ import annotations
+
+import contextlib
+import fnmatch
+import hashlib
+import json
+import os
+import tempfile
+import time
+from collections import Counter
+from concurrent.futures import FIRST_COMPLETED, wait
+from dataclasses import asdict, dataclass, field
+from pathlib import Path, PurePosixPath
+from typing import Callable, Iterable, Iterator
+from urllib.parse import unquote
+
+from . import __version__
+from .errors import AutorigError, InputError, OutputError, TemplateError
+
+__all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
+           "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
+           "EXIT_SOME_FAILED"]
+
+DEFAULT_EXTENSIONS = ("obj", "off", "ply", "stl", "glb", "gltf")
+CONFIG_NAMES = ("autorig.toml", "autorig.json")
+MANIFEST_NAME = ".autorig-batch.json"
+EXIT_SOME_FAILED = 7  # some of the batch's assets failed (6 is rig --strict's low confidence)
+
+_CONFIG_KEYS = ("template", "up", "front")
+_MANIFEST_VERSION = 1
+_MANIFEST_INTERVAL = 2.0  # seconds between manifest saves while running, so an interrupted batch resumes
+_THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+class ConfigError(InputError):
+    """A per-folder config file that cannot be used (exit code 2)."""
+
+
+class ClusterError(AutorigError):
+    """Cluster mode cannot run: dask.distributed missing, the scheduler unreachable, or workers unfit."""
+    exit_code = 1
+
+
+@dataclass
+class AssetResult:
+    """What happened to one asset.
+
+    input       path relative to the input folder (``/``-separated)
+    output      path of its output relative to the output folder
+    status      ``ok`` (rigged now), ``failed`` (now) or ``skipped`` (unchanged since an earlier run)
+    previous    for ``skipped``: ``ok`` or ``failed``, the outcome that is kept; else None
+    template    name of the template used
+    up, front   the axes used
+    error       the one-line error of a failure (also of a skipped earlier failure), naming the asset
+    error_type  the error's class name (``InputError``, ``RigFailedError``, ...), else None
+    confidence  ``rig.info["confidence"]`` when the pipeline reports one, else None
+    seconds     wall time of the work on this asset, transfer included (0 when skipped)
+    timings     {stage: seconds} of the pipeline and the ``write`` stage ({} when skipped)
+    """
+    input: str
+    output: str
+    status: str
+    template: str
+    up: str
+    front: str
+    previous: str | None = None
+    error: str | None = None
+    error_type: str | None = None
+    confidence: float | None = None
+    seconds: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def failed(self) -> bool:
+        """Whether the asset has no rig: it failed now, or failed before and is unchanged since."""
+        return self.status == "failed" or self.previous == "failed"
+
+
+@dataclass
+class BatchResult:
+    """The outcome of ``rig_folder``: one ``AssetResult`` per asset, in the order assets are found."""
+    input_dir: Path
+    output_dir: Path
+    assets: list[AssetResult]
+    seconds: float
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """{"ok": n, "failed": n, "skipped": n} by ``status``."""
+        counts = Counter(a.status for a in self.assets)
+        return {status: counts[status] for status in ("ok", "failed", "skipped")}
+
+    @property
+    def exit_code(self) -> int:
+        """0 when every asset has a rig, ``EXIT_SOME_FAILED`` when any has none (see ``AssetResult.failed``)."""
+        return EXIT_SOME_FAILED if any(a.failed for a in self.assets) else 0
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """One asset's work: where it is, where it goes, with which options, its resume key ("" when the input
+    could not be read), and its input's size in bytes."""
+    rel: str
+    output: str
+    template: object  # a loaded autorig.template.Template
+    up: str
+    front: str
+    key: str
+    size: int
+
+
+@dataclass(frozen=True)
+class _Job:
+    """What a worker needs: the input's files by relative name (the mesh first), and the options."""
+    name: str
+    files: dict[str, bytes]
+    template: object
+    up: str
+    front: str
+    fmt: str
+
+
+def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, template: str = "biped",
+               options=None, *, fmt: str = "glb", extensions: Iterable[str] = DEFAULT_EXTENSIONS,
+               jobs: int | None = None, scheduler: str | None = None, force: bool = False,
+               report: str | os.PathLike | None = None, junit: str | os.PathLike | None = None,
+               on_start: Callable[[int, int], None] | None = None,
+               on_result: Callable[[AssetResult], None] | None = None) -> BatchResult:
+    """Rig every mesh under ``input_dir`` into ``output_dir`` (see the module docstring).
+
+    template, options  defaults (a template name or file, a ``RigOptions``) that config files override
+    fmt                output format, one of ``autorig.exchange.FORMATS``
+    extensions         file extensions that count as meshes (without the dot, any case)
+    jobs               local worker processes (default: the CPUs this process may use)
+    scheduler          address of a Dask scheduler, e.g. ``tcp://10.0.0.5:8786``, instead of local processes
+    force              rig every asset even if unchanged since the last run
+    report, junit      where to write the JSON and JUnit XML reports (atomically), if anywhere
+    on_start           called once before rigging with (assets to rig, assets skipped)
+    on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
+
+    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError`` (3), ``OutputError`` (4) or
+    ``ClusterError`` (1) for problems that stop the whole batch, all before any rigging; a failing asset
+    only gets status ``failed``.
+    """
+    from .exchange import FORMATS
+    from .pipeline import RigOptions
+
+    start = time.perf_counter()
+    options = options or RigOptions()
+    if fmt not in FORMATS:
+        raise OutputError(f"unknown output format {fmt!r}: choose one of {', '.join(FORMATS)}")
+    if jobs is not None and jobs < 1:
+        raise InputError(f"jobs must be at least 1, not {jobs}")
+    input_dir, output_dir = Path(input_dir), Path(output_dir)
+    if not input_dir.is_dir():
+        raise InputError(f"{input_dir}: {'not a folder' if input_dir.exists() else 'no such folder'}")
+    if output_dir.resolve() == input_dir.resolve():
+        raise InputError(f"{output_dir}: the output folder must not be the input folder")
+    for path in (report, junit):
+        if path is not None:
+            _check_writable(Path(path))
+    try:
+        output_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"cannot write {output_dir}: {e.strerror or e}") from None
+
+    plans = _plan(input_dir, output_dir, template, options, fmt, extensions)
+    manifest_path = output_dir / MANIFEST_NAME
+    manifest = _read_manifest(manifest_path)
+    results: dict[str, AssetResult] = {}
+    todo: list[_Plan] = []
+    for plan in plans:
+        kept = None if force else _kept_result(plan, manifest.get(plan.rel), output_dir)
+        if kept:
+            results[plan.rel] = kept
+        else:
+            todo.append(plan)
+
+    if on_start:
+        on_start(len(todo), len(results))
+    for plan in plans:
+        if on_result and plan.rel in results:
+            on_result(results[plan.rel])
+
+    saved = time.monotonic()
+
+    def finished(plan: _Plan, outcome: dict) -> None:
+        nonlocal saved
+        results[plan.rel] = result = _store(plan, outcome, input_dir, output_dir, fmt, manifest)
+        if on_result:
+            on_result(result)
+        if time.monotonic() - saved > _MANIFEST_INTERVAL:
+            _write_manifest(manifest_path, manifest)
+            saved = time.monotonic()
+
+    def jobs_of() -> Iterator[tuple[_Plan, _Job]]:
+        # Largest first: the big meshes are the slow ones, and starting them early keeps the last worker
+        # from finishing long after the others.
+        for plan in sorted(todo, key=lambda p: (-p.size, p.rel)):
+            try:
+                yield plan, _Job(plan.rel, _input_files(input_dir / plan.rel), plan.template, plan.up,
+                                 plan.front, fmt)
+            except InputError as e:  # unreadable, or gone since it was found
+                finished(plan, {"status": "failed", "remember": False, "error": str(e),
+                                "error_type": "InputError"})
+
+    try:
+        if todo:
+            if scheduler:
+                _run_on_cluster(scheduler, jobs_of(), finished)
+            else:
+                _run_locally(jobs or _cpu_count(), jobs_of(), finished)
+    finally:
+        _write_manifest(manifest_path, manifest)
+
+    result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start)
+    if report is not None:
+        write_json_report(result, report)
+    if junit is not None:
+        write_junit_report(result, junit)
+    return result
+
+
+# --------------------------------------------------------------------------------------------- finding work
+
+def find_meshes(input_dir: str | os.PathLike, extensions: Iterable[str] = DEFAULT_EXTENSIONS,
+                exclude: str | os.PathLike | None = None) -> list[str]:
+    """Relative ``/``-separated paths of the mesh files under ``input_dir``, in a deterministic order.
+
+    Hidden files and folders (name starting with '.') and the folder ``exclude`` are left out; symlinks to
+    files count, symlinked folders are not entered (they could loop).
+    """
+    suffixes = {"." + e.lower().lstrip(".") for e in extensions}
+    root = Path(input_dir)
+    skip = Path(os.path.realpath(exclude)) if exclude is not None else None
+    found = []
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = [d for d in dirs if not d.startswith(".")
+                   and (skip is None or Path(os.path.realpath(os.path.join(folder, d))) != skip)]
+        rel_folder = PurePosixPath(Path(folder).relative_to(root).as_posix())
+        found += [str(rel_folder / name) for name in files
+                  if not name.startswith(".") and Path(name).suffix.lower() in suffixes]
+    return sorted(found, key=lambda rel: rel.split("/"))
+
+
+def _plan(input_dir: Path, output_dir: Path, template, options, fmt: str, extensions) -> list[_Plan]:
+    """Each asset's effective options, output path and resume key; config and template errors raise here."""
+    from .exchange import default_output_path
+    from .mesh import AxisError, frame_rotation
+
+    rels = find_meshes(input_dir, extensions, exclude=output_dir)
+    templates = _TemplateCache()
+    base = {"template": templates.resolve(template, Path.cwd()), "up": options.up, "front": options.front}
+    for key in ("up", "front"):
+        base[key] = _check_axis(base[key], key, "")
+    configs = _Configs(input_dir, templates)
+
+    outputs = {rel: default_output_path(rel, fmt).as_posix() for rel in rels}
+    clashes = Counter(outputs.values())
+    for rel, out in outputs.items():
+        if clashes[out] > 1:  # hero.obj and hero.ply: keep the extension, hero.obj.rigged.glb
+            source = PurePosixPath(rel)
+            suffix = PurePosixPath(out).name[len(source.stem):]  # ".rigged.glb"
+            outputs[rel] = str(source.with_name(source.name + suffix))
+    if len(set(outputs.values())) < len(outputs):
+        taken = Counter(outputs.values())
+        names = sorted(rel for rel, out in outputs.items() if taken[out] > 1)
+        raise InputError(f"{input_dir}: these assets would share an output name: {', '.join(names)}")
+
+    plans = []
+    for rel in rels:
+        effective = configs.options_for(rel, base)
+        try:
+            if "auto" not in (effective["up"], effective["front"]):
+                frame_rotation(effective["up"], effective["front"])
+        except AxisError as e:
+            raise ConfigError(f"{input_dir / rel}: {e} (from {configs.origin_of(rel)})") from None
+        loaded = templates.load(effective["template"])
+        try:
+            files = _input_files(input_dir / rel)
+        except InputError:
+            key, size = "", 0  # fails as that asset's error when it is read again to be rigged
+        else:
+            key = _digest({"input": {name: hashlib.sha256(data).hexdigest() for name, data in files.items()},
+                           "template": templates.digest(loaded), "up": effective["up"],
+                           "front": effective["front"], "format": fmt, "autorig": __version__})
+            size = sum(map(len, files.values()))
+        plans.append(_Plan(rel, outputs[rel], loaded, effective["up"], effective["front"], key, size))
+    return plans
+
+
+class _TemplateCache:
+    """Template specs resolved (file templates to absolute paths), loaded and hashed once each."""
+
+    def __init__(self):
+        self._loaded: dict[str, object] = {}
+
+    @staticmethod
+    def resolve(spec: str, folder: Path) -> str:
+        """A built-in name stays a name; a file (a spec ending in ``.json`` or holding a path separator) becomes
+        an absolute path, relative to ``folder``."""
+        spec = str(spec)
+        if spec.endswith(".json") or os.sep in spec or "/" in spec:
+            return str((folder / spec).resolve())
+        return spec
+
+    def load(self, spec: str):
+        from .template import load_template
+        if spec not in self._loaded:
+            self._loaded[spec] = load_template(spec)
+        return self._loaded[spec]
+
+    @staticmethod
+    def digest(template) -> str:
+        """Hash of everything in a template that shapes a rig, so editing a template file reruns its assets."""
+        return _digest({"name": template.name, "names": list(template.names),
+                        "parents": template.parents.tolist(), "positions": template.positions.tolist(),
+                        "symmetry": [list(p) for p in template.symmetry], "feet": list(template.feet),
+                        "fat": list(template.fat)})
+
+
+class _Configs:
+    """The per-folder config files under an input folder, and the options they give each asset."""
+
+    def __init__(self, root: Path, templates: _TemplateCache):
+        self.root = root
+        self._templates = templates
+        # relative folder ("" for the root) -> (config file, its settings), or None when it has none
+        self._by_folder: dict[str, tuple[Path, dict] | None] = {}
+
+    def _config(self, rel_folder: str) -> tuple[Path, dict] | None:
+        if rel_folder not in self._by_folder:
+            folder = self.root / rel_folder
+            present = [folder / name for name in CONFIG_NAMES if (folder / name).is_file()]
+            if len(present) > 1:
+                raise ConfigError(f"{folder}: both {' and '.join(CONFIG_NAMES)}; keep one")
+            self._by_folder[rel_folder] = (present[0], self._parse(present[0])) if present else None
+        return self._by_folder[rel_folder]
+
+    def _chain(self, rel: str) -> list[tuple[str, Path, dict]]:
+        """(relative folder, file, settings) of the configs that apply to asset ``rel``, farthest first."""
+        parts = rel.split("/")[:-1]
+        chain = []
+        for depth in range(len(parts) + 1):
+            rel_folder = "/".join(parts[:depth])
+            config = self._config(rel_folder)
+            if config:
+                chain.append((rel_folder, *config))
+        return chain
+
+    def options_for(self, rel: str, base: dict) -> dict:
+        effective = dict(base)
+        for rel_folder, _, settings in self._chain(rel):
+            local = rel[len(rel_folder) + 1:] if rel_folder else rel
+            effective.update({k: v for k, v in settings.items() if k in _CONFIG_KEYS})
+            for glob, entry in settings.get("files", {}).items():
+                if fnmatch.fnmatchcase(local if "/" in glob else PurePosixPath(local).name, glob):
+                    effective.update(entry)
+        return effective
+
+    def origin_of(self, rel: str) -> str:
+        chain = self._chain(rel)
+        return str(chain[-1][1]) if chain else "the command line"
+
+    def _parse(self, path: Path) -> dict:
+        try:
+            if path.suffix == ".toml":
+                try:
+                    import tomllib
+                except ModuleNotFoundError:  # Python 3.10
+                    import tomli as tomllib
+                with open(path, "rb") as f:
+                    data = tomllib.load(f)
+            else:
+                data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError) as e:  # TOMLDecodeError and JSONDecodeError too
+            raise ConfigError(f"{path}: {' '.join(str(e).split())}") from None
+        if not isinstance(data, dict):
+            raise ConfigError(f"{path}: expected a table of settings")
+        settings = self._settings(data, path, allowed=(*_CONFIG_KEYS, "files"), where="")
+        files = data.get("files", {})
+        if not isinstance(files, dict):
+            raise ConfigError(f"{path}: files: expected a table of glob = {{settings}}")
+        settings["files"] = {glob: self._settings(entry, path, _CONFIG_KEYS, f"files.{glob!r}: ")
+                             for glob, entry in files.items()}
+        return settings
+
+    def _settings(self, data, path: Path, allowed, where: str) -> dict:
+        if not isinstance(data, dict):
+            raise ConfigError(f"{path}: {where}expected a table of settings")
+        unknown = sorted(set(data) - set(allowed))
+        if unknown:
+            raise ConfigError(f"{path}: {where}unknown key {unknown[0]!r}; use {', '.join(allowed)}")
+        settings = {}
+        for key in _CONFIG_KEYS:
+            if key in data:
+                if not isinstance(data[key], str):
+                    raise ConfigError(f"{path}: {where}{key} must be a string, not {data[key]!r}")
+                settings[key] = data[key] if key == "template" else _check_axis(data[key], key, f"{path}: {where}")
+        if "template" in settings:
+            settings["template"] = self._templates.resolve(settings["template"], path.parent)
+            try:
+                self._templates.load(settings["template"])
+            except TemplateError as e:
+                raise TemplateError(f"{path}: {where}{e}") from None
+        return settings
+
+
+# --------------------------------------------------------------------------------------------- resuming
+
+def _check_axis(spec: str, key: str, where: str) -> str:
+    """``spec`` in lower case if it names an axis or is ``auto``, else ``ConfigError``."""
+    from .mesh import AxisError, axis_vector
+    if spec.lower() == "auto":
+        return "auto"
+    try:
+        axis_vector(spec)
+    except AxisError as e:
+        raise ConfigError(f"{where}{key}: {e}") from None
+    return spec.lower()
+
+
+def _input_files(path: Path) -> dict[str, bytes]:
+    """The bytes a mesh needs, by name relative to its folder: the file itself, first, and for a ``.gltf``
+    the external buffers and images it names that exist (a missing one is the loader's error to report)."""
+    try:
+        files = {path.name: path.read_bytes()}
+    except OSError as e:
+        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+    if path.suffix.lower() == ".gltf":
+        try:
+            document = json.loads(files[path.name])
+        except (ValueError, UnicodeDecodeError):
+            return files  # not JSON: the loader will say so
+        folder = path.parent.resolve()
+        for item in [*document.get("buffers", []), *document.get("images", [])]:
+            uri = item.get("uri") if isinstance(item, dict) else None
+            if not isinstance(uri, str) or uri.startswith("data:") or ":" in uri.split("/")[0]:
+                continue
+            name = unquote(uri)
+            target = (folder / name).resolve()
+            # Only files beside or below the glTF: they have to fit in a worker's scratch folder.
+            if folder in target.parents and target.is_file():
+                files[PurePosixPath(target.relative_to(folder).as_posix()).as_posix()] = target.read_bytes()
+    return files
+
+
+def _digest(value) -> str:
+    return hashlib.sha256(json.dumps(value, sort_keys=True).encode()).hexdigest()
+
+
+def _read_manifest(path: Path) -> dict:
+    """{relative input: entry} from an earlier run; an absent, unreadable or foreign manifest is empty: then
+    everything is rigged again, which is slow but never wrong."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if data.get("manifest") == _MANIFEST_VERSION and isinstance(data.get("assets"), dict):
+            return data["assets"]
+    except (OSError, ValueError, AttributeError):
+        pass
+    return {}
+
+
+def _write_manifest(path: Path, assets: dict) -> None:
+    from .exchange import write_file_atomic
+    document = {"manifest": _MANIFEST_VERSION, "autorig": __version__, "assets": dict(sorted(assets.items()))}
+    write_file_atomic(path, (json.dumps(document, indent=1) + "\n").encode())
+
+
+def _kept_result(plan: _Plan, entry: dict | None, output_dir: Path) -> AssetResult | None:
+    """The earlier outcome of ``plan`` if it still holds (same key, and the output still there), else None."""
+    if not entry or entry.get("key") != plan.key or entry.get("output") != plan.output:
+        return None
+    if entry.get("status") == "ok" and not (output_dir / plan.output).exists():
+        return None
+    return AssetResult(input=plan.rel, output=plan.output, status="skipped", previous=entry.get("status"),
+                       template=plan.template.name, up=plan.up, front=plan.front, error=entry.get("error"),
+                       error_type=entry.get("error_type"), confidence=entry.get("confidence"))
+
+
+def _store(plan: _Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict
+           ) -> AssetResult:
+    """Write a finished asset's output, remember its outcome when it would come out the same again, and
+    return its ``AssetResult``."""
+    result = AssetResult(input=plan.rel, output=plan.output, status=outcome["status"],
+                         template=plan.template.name, up=plan.up, front=plan.front, error=outcome.get("error"),
+                         error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
+                         seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}))
+    out = output_dir / plan.output
+    if result.status == "ok":
+        try:
+            _write_output(out, outcome["data"], fmt, input_dir / plan.rel)
+        except AutorigError as e:
+            result.status, result.error, result.error_type = "failed", str(e), type(e).__name__
+            result.confidence = None
+            outcome = {"remember": False}
+    elif plan.rel in manifest and manifest[plan.rel].get("status") == "ok":
+        _remove_output(out, fmt)
+    if outcome.get("remember"):
+        manifest[plan.rel] = {"key": plan.key, "output": plan.output, "status": result.status,
+                              "error": result.error, "error_type": result.error_type,
+                              "confidence": result.confidence}
+    else:
+        manifest.pop(plan.rel, None)
+    return result
+
+
+def _write_output(out: Path, data: bytes | dict[str, bytes], fmt: str, source: Path) -> None:
+    """Write a worker's output bytes (a file's, or {name: bytes} of a Pinocchio folder) to ``out``."""
+    from .exchange import check_output, write_file_atomic, write_folder_atomic
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"cannot write {out}: {e.strerror or e}") from None
+    check_output(out, fmt, input_path=source)
+    if fmt == "pinocchio":
+        write_folder_atomic(out, data)
+    else:
+        write_file_atomic(out, data)
+
+
+def _remove_output(out: Path, fmt: str) -> None:
+    """Delete an output this batch wrote earlier (the manifest says so) for an input that now fails."""
+    from .exchange.pinocchio import FILES
+    with contextlib.suppress(OSError):
+        if fmt == "pinocchio" and out.is_dir() and not out.is_symlink():
+            for name in FILES:
+                with contextlib.suppress(FileNotFoundError):
+                    (out / name).unlink()
+            out.rmdir()
+        elif out.is_file():
+            out.unlink()
+
+
+# --------------------------------------------------------------------------------------------- running
+
+def _rig_one(job: _Job) -> dict:
+    """Rig one asset in a worker (a local process or a Dask worker): write its files to a scratch folder,
+    rig, write the output there and return the output's bytes. Never raises for a problem with the asset."""
+    from .exchange import write_rig
+    from .pipeline import RigOptions, rig
+
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, _quiet_libraries():
+        source = Path(scratch, "in")
+        mesh = source / next(iter(job.files))
+        try:
+            for name, data in job.files.items():
+                (source / name).parent.mkdir(parents=True, exist_ok=True)
+                (source / name).write_bytes(data)
+            result = rig(str(mesh), job.template, RigOptions(up=job.up, front=job.front))
+            timings = dict(result.timings)
+            result.timings = {}  # they differ on every run, and the outputs must not
+            written = time.perf_counter()
+            out = write_rig(result, Path(scratch, "rig"), job.fmt)
+            timings["write"] = time.perf_counter() - written
+            data = {p.name: p.read_bytes() for p in sorted(out.iterdir())} if out.is_dir() else out.read_bytes()
+            confidence = result.info.get("confidence")
+            return {"status": "ok", "remember": True, "data": data, "timings": timings,
+                    "confidence": None if confidence is None else float(confidence),
+                    "seconds": time.perf_counter() - start}
+        except AutorigError as e:
+            error, error_type, remember = str(e), type(e).__name__, True
+        except Exception as e:  # a bug in autorig: report it, and try again on the next run
+            error, error_type, remember = f"internal error: {type(e).__name__}: {e}", type(e).__name__, False
+        # Messages name the scratch copy; name the asset instead, and always.
+        error = " ".join(error.replace(str(mesh), job.name).replace(str(source) + os.sep, "").split())
+        if job.name not in error:
+            error = f"{job.name}: {error}"
+        return {"status": "failed", "remember": remember, "error": error, "error_type": error_type,
+                "seconds": time.perf_counter() - start}
+
+
+@contextlib.contextmanager
+def _quiet_libraries():
+    """Keep numpy's, trimesh's and friends' warnings and log lines out of the batch's output: the one-line
+    error per failed asset is what a user reads."""
+    import logging
+    import warnings
+    previous = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        logging.disable(previous)
+
+
+def _run_locally(jobs: int, work: Iterator[tuple[_Plan, _Job]], finished) -> None:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("spawn")
+    with _one_thread_per_worker():
+        broken = True
+        while broken:  # a crashed worker breaks the whole pool: the rest of the work goes to a new one
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as executor:
+                broken = _drain(executor, 2 * jobs, work, finished,
+                                lost_message="worker process died (crashed or killed) while rigging this asset "
+                                             "or one beside it; rerun with -j 1 to tell which")
+
+
+def _drain(executor, window: int, work: Iterator[tuple[_Plan, _Job]], finished, lost_message: str) -> bool:
+    """Keep ``window`` jobs in flight on ``executor`` until ``work`` runs out, handing each outcome to
+    ``finished``. A job that the executor could not run (its worker died, the cluster lost it) fails with
+    ``lost_message`` and is not remembered. Returns True, and stops taking work, if a local process pool
+    broke; the jobs in flight then fail."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    pending: dict = {}
+    broken = False
+    while True:
+        while not broken and len(pending) < window:
+            item = next(work, None)
+            if item is None:
+                break
+            pending[executor.submit(_rig_one, item[1])] = item[0]
+        if not pending:
+            return broken
+        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        for future in sorted(done, key=lambda f: pending[f].rel):
+            plan = pending.pop(future)
+            try:
+                outcome = future.result()
+            except Exception as e:
+                broken = broken or isinstance(e, BrokenProcessPool)
+                detail = " ".join(str(e).split())
+                outcome = {"status": "failed", "remember": False, "error_type": type(e).__name__,
+                           "error": f"{plan.rel}: {lost_message}" + (f" ({type(e).__name__}: {detail})"
+                                                                     if detail else "")}
+            finished(plan, outcome)
+
+
+@contextlib.contextmanager
+def _one_thread_per_worker():
+    """Start worker processes with one thread per numerical library (see the module docstring). Spawned
+    children copy this process's environment when they start, which is the only time those libraries read
+    it, so it is set here around the pool and restored afterwards."""
+    saved = {name: os.environ.get(name) for name in _THREAD_VARIABLES}
+    os.environ.update({name: "1" for name, value in saved.items() if value is None})
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+
+
+def _run_on_cluster(address: str, work: Iterator[tuple[_Plan, _Job]], finished) -> None:
+    try:
+        from distributed import Client
+        from distributed.comm import parse_address
+        from distributed.comm.registry import get_backend
+    except ImportError:
+        raise ClusterError("cluster mode needs dask.distributed: pip install 'autorig[cluster]'") from None
+    try:
+        # Checked first: a Client that fails on a bad scheme hangs the interpreter's exit for a minute.
+        get_backend(parse_address(address)[0])
+    except ValueError as e:
+        raise ClusterError(f"bad Dask scheduler address {address!r}: {e}") from None
+    try:
+        # Waits distributed.comm.timeouts.connect (30 s; DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT).
+        client = Client(address, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as e:
+        raise ClusterError(f"cannot reach the Dask scheduler at {address}: {' '.join(str(e).split())}") from None
+    with client:
+        try:
+            versions = client.run(_autorig_version)
+        except Exception as e:  # a worker that cannot even import autorig
+            raise ClusterError(f"the Dask workers at {address} cannot run autorig: {type(e).__name__}: {e}"
+                               ) from None
+        wrong = sorted(w for w, v in versions.items() if v != __version__)
+        if not versions:
+            raise ClusterError(f"the Dask scheduler at {address} has no workers")
+        if wrong:
+            raise ClusterError(f"Dask workers run another autorig version than {__version__}: "
+                               f"{', '.join(f'{w} has {versions[w]}' for w in wrong[:3])}")
+        threads = sum(client.nthreads().values())
+        with client.get_executor(pure=False) as executor:
+            # Dask retries a task whose worker died (distributed.scheduler.allowed-failures) before it
+            # gives up with KilledWorker; any error from the cluster itself fails just that asset.
+            _drain(executor, max(4, 2 * threads), work, finished,
+                   lost_message="the Dask cluster could not run this asset")
+
+
+def _autorig_version() -> str:
+    return __version__
+
+
+def _cpu_count() -> int:
+    """CPUs this process may run on (fewer than the machine's in a container or under taskset)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _check_writable(path: Path) -> None:
+    """Refuse a report path that cannot be written, before any slow work."""
+    if path.is_dir():
+        raise OutputError(f"cannot write {path}: it is a directory")
+    if not path.parent.is_dir():
+        raise OutputError(f"cannot write {path}: the directory {path.parent} does not exist")
+    if not os.access(path.parent, os.W_OK):
+        raise OutputError(f"cannot write {path}: permission denied in {path.parent}")
+
+
+# --------------------------------------------------------------------------------------------- reports
+
+def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
+    """Write ``result`` as JSON, atomically::
+
+        {"autorig": "0.1.0", "input": "/abs/assets", "output": "/abs/rigged", "seconds": 12.5,
+         "summary": {"total": 4, "ok": 2, "failed": 1, "skipped": 1, "exit_code": 6},
+         "assets": [{"input": "dogs/rex.obj", "output": "dogs/rex.rigged.glb", "status": "ok",
+                     "previous": null, "template": "quadruped", "up": "y", "front": "z", "error": null,
+                     "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...}},
+                    ...]}
+    """
+    from .exchange import write_file_atomic
+    document = {"autorig": __version__, "input": str(result.input_dir.resolve()),
+                "output": str(result.output_dir.resolve()), "seconds": round(result.seconds, 3),
+                "summary": {"total": len(result.assets), **result.counts, "exit_code": result.exit_code},
+                "assets": [_json_asset(a) for a in result.assets]}
+    write_file_atomic(path, (json.dumps(document, indent=1) + "\n").encode())
+
+
+def _json_asset(asset: AssetResult) -> dict:
+    document = asdict(asset)
+    document["seconds"] = round(asset.seconds, 3)
+    document["timings"] = {stage: round(s, 4) for stage, s in asset.timings.items()}
+    return document
+
+
+def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
+    """Write ``result`` as JUnit XML, atomically: one testsuite, one testcase per asset (classname its folder,
+    name its file), ``<failure>`` for an asset without a rig, ``<skipped>`` for an unchanged rigged asset."""
+    import xml.etree.ElementTree as ET
+
+    from .exchange import write_file_atomic
+
+    failures = sum(a.failed for a in result.assets)
+    skipped = sum(a.status == "skipped" and not a.failed for a in result.assets)
+    attributes = {"tests": str(len(result.assets)), "failures": str(failures), "errors": "0",
+                  "skipped": str(skipped), "time": f"{result.seconds:.3f}"}
+    suites = ET.Element("testsuites", {"name": "autorig batch", **attributes})
+    suite = ET.SubElement(suites, "testsuite", {"name": f"autorig batch {result.input_dir.name}", **attributes})
+    for asset in result.assets:
+        folder, _, name = asset.input.rpartition("/")
+        case = ET.SubElement(suite, "testcase", {"classname": folder or ".", "name": name,
+                                                 "time": f"{asset.seconds:.3f}"})
+        if asset.failed:
+            message = asset.error or "failed"
+            if asset.status == "skipped":
+                message += " (unchanged since the run that failed)"
+            failure = ET.SubElement(case, "failure", {"message": message, "type": asset.error_type or "Error"})
+            failure.text = message
+        elif asset.status == "skipped":
+            ET.SubElement(case, "skipped", {"message": "unchanged since the last run"})
+        else:
+            out = ET.SubElement(case, "system-out")
+            out.text = f"{asset.template} -> {asset.output}" + (
+                f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "")
+    ET.indent(suites)
+    write_file_atomic(path, ET.tostring(suites, encoding="utf-8", xml_declaration=True) + b"\n")
