@@ -44,12 +44,16 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     crossing the medial surface; small angles come from surface noise (bumps make tiny medial branches).
     """
     edge_len = 2 ** (field.max_level - field.leaf_level)
-    a_idx = field.leaf_index[:, None, :] + CORNERS[EDGES[:, 0]][None] * edge_len[:, None, None]
-    b_idx = field.leaf_index[:, None, :] + CORNERS[EDGES[:, 1]][None] * edge_len[:, None, None]
-    ka, kb = _key(a_idx.reshape(-1, 3)), _key(b_idx.reshape(-1, 3))
-    # Neighbouring leaves share edges: count each once.
-    _, first = np.unique(np.stack([ka, kb], axis=1), axis=0, return_index=True)
-    ka, kb = ka[first], kb[first]
+    a_idx = (field.leaf_index[:, None, :] + CORNERS[EDGES[:, 0]][None] * edge_len[:, None, None]).reshape(-1, 3)
+    b_idx = (field.leaf_index[:, None, :] + CORNERS[EDGES[:, 1]][None] * edge_len[:, None, None]).reshape(-1, 3)
+    # Neighbouring leaves of one size share edges: count each once. An edge is its first corner, its axis
+    # and its length, packed into one integer (corner coordinates are at most 2**max_level).
+    side = 2 ** field.max_level + 1
+    axis = np.argmax(b_idx - a_idx, axis=1)
+    level = np.repeat(field.leaf_level, len(EDGES))
+    edge_key = (((a_idx[:, 0] * side + a_idx[:, 1]) * side + a_idx[:, 2]) * 3 + axis) * (field.max_level + 1) + level
+    _, first = np.unique(edge_key, return_index=True)
+    ka, kb = _key(a_idx[first]), _key(b_idx[first])
     ia = np.searchsorted(field.corner_keys, ka)
     ib = np.searchsorted(field.corner_keys, kb)
     da, db = field.corner_depth[ia], field.corner_depth[ib]

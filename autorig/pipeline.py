@@ -30,7 +30,7 @@ class RigOptions:
     """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z), or "auto"
     to detect it (see ``autorig.orient``).
     voxels, max_segments: template "auto" only: grid cells along the longest side of the mesh, and the most
-    bones per extracted chain (see ``autorig.extract``)."""
+    bones per extracted chain, plus one for each chain hanging from it (see ``autorig.extract``)."""
     up: str = "auto"
     front: str = "auto"
     voxels: int = 96
@@ -101,12 +101,11 @@ def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage
     """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
     from .attach import bone_heat
-    from .extract import (connected_medial, control_skeleton, distance_map, inside_graph, medial_surface,
-                          path_tree, skeleton_confidence, voxelize)
+    from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
+                          medial_surface, path_tree, skeleton_confidence, voxelize)
     from .mesh import prepare
-    from .orient import working_axes
 
-    up, front = working_axes(options.up, options.front)
+    up, front = fixed_axes(options.up, options.front)
     with stage("prepare"):
         prepared = prepare(vertices, faces, up, front, name=name)
     with stage("voxels"):
