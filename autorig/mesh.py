@@ -30,7 +30,7 @@ FLAT_TOLERANCE = 1e-6
 # cotangent weights are numerically meaningless.
 AREA_TOLERANCE = 1e-12
 # Triangles the discretization works with at most; denser working meshes are simplified for it.
-COARSE_FACES = 12_000
+COARSE_FACES = 6_000
 
 
 class AxisError(AutorigError, ValueError):
@@ -534,7 +534,8 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
 
 
 def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """F [F, 3] with every connected piece whose signed volume is negative turned inside out.
+    """F [F, 3] with every connected piece whose signed volume is negative turned inside out, each triangle
+    listed from its smallest vertex index.
 
     Exports that face inward (negative volume) would make every winding number negative, and so the whole
     mesh "outside"; pieces are judged one by one because a model made of parts can have some parts right
@@ -553,7 +554,10 @@ def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     flip = piece_volume[label[F[:, 0]]] < 0
     out = F.copy()
     out[flip] = out[flip][:, [0, 2, 1]]
-    return out
+    # Each triangle starts at its smallest vertex index (same orientation), so a mesh and its inward-facing
+    # copy give the later stages, decimation included, the very same triangles.
+    first = np.argmin(out, axis=1)
+    return np.take_along_axis(out, (first[:, None] + np.arange(3)[None, :]) % 3, axis=1)
 
 
 def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):
@@ -563,7 +567,9 @@ def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):
     what seams and STL corners produce, and it never joins parts that merely come close.
     """
     first, merged = _first_occurrences(V + 0.0)   # merged [V]: merged index of each input vertex
-    positions = canonical[first]                   # [M, 3]
+    # Rounded to 1e-9 of the height: the same mesh at another scale or offset then gives bit-identical
+    # working vertices, so choices that hinge on ties (decimation of a marching-cubes mesh) come out the same.
+    positions = np.round(canonical[first], 9)      # [M, 3]
     G = merged[F]
     T = positions[G]
     area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)

@@ -26,8 +26,8 @@ import numpy as np
 AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too
 CONVENTION_BONUS = 0.5    # penalty per axis a frame off +y up / +z front must beat the convention by
-DETECTION_EXPANSIONS = 500  # A* budget per fully searched frame (its greedy embedding is used beyond it)
-FULL_SEARCHES = 4            # frames searched in full after the greedy ranking
+DETECTION_EXPANSIONS = 200  # A* budget per fully searched frame (its greedy embedding is used beyond it)
+FULL_SEARCHES = 3            # frames searched in full after the greedy ranking
 
 
 @dataclass

@@ -163,8 +163,13 @@ def test_working_copy_merges_drops_and_maps_back():
     # same triangles as the shared-vertex tetrahedron, in input order (ordered by first corner: 0, 2, 1, 3)
     reference = prepare(V, F)
     np.testing.assert_array_equal(prepared.work_vertices, reference.work_vertices[[0, 2, 1, 3]])
-    np.testing.assert_array_equal(prepared.work_vertices[prepared.work_faces],
-                                  reference.work_vertices[reference.work_faces])
+    def corners(mesh):
+        """Each triangle's corner positions from its lexicographically smallest corner (same orientation)."""
+        T = mesh.work_vertices[mesh.work_faces]
+        start = [min(range(3), key=lambda k: tuple(t[k])) for t in T]
+        return np.array([np.roll(t, -k, axis=0) for t, k in zip(T, start)])
+
+    np.testing.assert_array_equal(corners(prepared), corners(reference))
     mapped = prepared.work_index >= 0
     assert mapped.sum() == 12 and prepared.work_index[12] == -1
     np.testing.assert_array_equal(prepared.work_vertices[prepared.work_index[mapped]], prepared.vertices[mapped])
@@ -174,8 +179,10 @@ def test_working_copy_keeps_input_order():
     V, F = shuffled_sphere()
     prepared = prepare(V, F)
     np.testing.assert_array_equal(prepared.work_index, np.arange(len(V)))
-    np.testing.assert_array_equal(prepared.work_faces, F)
-    np.testing.assert_array_equal(prepared.work_vertices, prepared.vertices)
+    # The same triangles, in the same order and orientation, each listed from its smallest vertex index.
+    rolled = np.take_along_axis(F, (np.argmin(F, axis=1)[:, None] + np.arange(3)) % 3, axis=1)
+    np.testing.assert_array_equal(prepared.work_faces, rolled)
+    np.testing.assert_allclose(prepared.work_vertices, prepared.vertices, atol=1e-9)
 
 
 # ------------------------------------------------------------------------------------------------ file formats

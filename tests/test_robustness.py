@@ -39,7 +39,7 @@ def test_z_up_file_is_detected(sample, reference):
     assert (lying.info["up"], lying.info["front"]) == ("z", "-y")
     back = np.c_[lying.joints[:, 0], lying.joints[:, 2], -lying.joints[:, 1]]
     # The field is sampled in the file's own axes, so the rig is close, not bit-identical.
-    np.testing.assert_allclose(back, reference.joints, atol=0.01 * 1.7)
+    np.testing.assert_allclose(back, reference.joints, atol=0.02 * 1.7)
 
 
 def test_inward_facing_mesh_rigs_like_outward(sample, reference):
