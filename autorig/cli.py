@@ -222,15 +222,11 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
 @_common_options
 def templates_command():
     """List the built-in templates: name, number of joints, description; and auto, the template-free skeleton."""
-    import json
-    from importlib import resources
-
-    from .template import builtin_names, load_template
+    from .template import builtin_description, builtin_names, load_template
 
     for name in builtin_names():
         joints = len(load_template(name).names)
-        data = json.loads(resources.files("autorig.templates").joinpath(name + ".json").read_text())
-        click.echo(f"{name:<12} {joints:3d} joints  {data.get('description', '')}")
+        click.echo(f"{name:<12} {joints:3d} joints  {builtin_description(name)}")
     click.echo(f"{AUTO_TEMPLATE:<12} any joints  No template: a skeleton made from the mesh's own shape, one chain per "
                f"limb, for any creature (Wade & Parent 2002; see --voxels, --max-segments).")
 

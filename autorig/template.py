@@ -116,6 +116,11 @@ def builtin_names() -> list[str]:
     return sorted(p.name[:-5] for p in _builtin_folder().iterdir() if p.name.endswith(".json"))
 
 
+def builtin_description(name: str) -> str:
+    """The one-line description in a built-in template's file."""
+    return json.loads(_builtin_folder().joinpath(name + ".json").read_text()).get("description", "")
+
+
 def load_template(name_or_path: str | Path) -> Template:
     """A built-in template by name (``biped``) or a user's template file (``my_rig.json``)."""
     text_path = str(name_or_path)
