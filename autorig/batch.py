@@ -87,6 +87,7 @@ from urllib.parse import unquote
 
 from . import __version__
 from .errors import AutorigError, InputError, OutputError, TemplateError
+from .quiet import quiet_libraries
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
@@ -612,7 +613,7 @@ def _rig_one(job: _Job) -> dict:
     from .pipeline import RigOptions, rig
 
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, _quiet_libraries():
+    with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, quiet_libraries():
         source = Path(scratch, "in")
         mesh = source / next(iter(job.files))
         try:
@@ -640,22 +641,6 @@ def _rig_one(job: _Job) -> dict:
             error = f"{job.name}: {error}"
         return {"status": "failed", "remember": remember, "error": error, "error_type": error_type,
                 "seconds": time.perf_counter() - start}
-
-
-@contextlib.contextmanager
-def _quiet_libraries():
-    """Keep numpy's, trimesh's and friends' warnings and log lines out of the batch's output: the one-line
-    error per failed asset is what a user reads."""
-    import logging
-    import warnings
-    previous = logging.root.manager.disable
-    logging.disable(logging.CRITICAL)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            yield
-    finally:
-        logging.disable(previous)
 
 
 def _run_locally(jobs: int, work: Iterator[tuple[_Plan, _Job]], finished) -> None:

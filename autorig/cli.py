@@ -14,7 +14,6 @@ library and ``autorig``'s own light modules; numpy, trimesh, libigl and the pipe
 """
 from __future__ import annotations
 
-import contextlib
 import os
 import time
 import traceback
@@ -24,6 +23,7 @@ import click
 
 from . import __version__
 from .errors import AutorigError, OutputError
+from .quiet import quiet_libraries
 
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
 # Must match autorig.exchange.FORMATS (a test checks); repeated here so --help need not import numpy.
@@ -186,7 +186,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     from .confidence import STRICT_THRESHOLD
     from .errors import LowConfidenceError
     from .pipeline import RigOptions, rig
-    with _library_noise(shown=verbose):
+    with quiet_libraries(shown=verbose):
         result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels,
                                                           max_segments=max_segments))
         confidence = result.info["confidence"]
@@ -260,7 +260,7 @@ def preview_command(rig_file: str, output: str | None, up: str, front: str, titl
     out_path = Path(output) if output else rig_path.with_suffix(".png")
     _refuse_input(out_path, rig_path)
     _check_output(out_path, "png")
-    with _library_noise(shown=False):
+    with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
         render_preview(rig, out_path, title=title if title is not None else _preview_title(rig_path.name, rig),
                        up=up, front=front)
@@ -318,7 +318,7 @@ def pose_command(rig_file: str, motion: str, output: str | None, frame: int | No
     from .pose import joint_map, read_map, retarget
 
     frame_rotation(up, front)
-    with _library_noise(shown=False):
+    with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
         moves = read_bvh(motion_path)
         if frame is not None and frame >= len(moves.frames):
@@ -461,26 +461,6 @@ def _require_matplotlib(what: str) -> None:
 def _preview_title(name: str, rig) -> str:
     """The heading of a rig's picture: file name, template and counts."""
     return f"{name}: {rig.template or 'rig'}, {len(rig.names)} joints, {len(rig.vertices)} vertices"
-
-
-@contextlib.contextmanager
-def _library_noise(shown: bool):
-    """Hide the warnings and log messages of numpy, trimesh and friends unless ``shown``: on a normal run
-    stderr carries only autorig's own error line. Restores the previous settings afterwards."""
-    if shown:
-        yield
-        return
-    import logging
-    import warnings
-
-    previous = logging.root.manager.disable
-    logging.disable(logging.CRITICAL)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            yield
-    finally:
-        logging.disable(previous)
 
 
 def main(argv: list[str] | None = None) -> None:
