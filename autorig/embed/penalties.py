@@ -161,27 +161,27 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     vectors = np.zeros((K, 3))
     bone_cost = [None] * K
     C, D = graph.centers, graph.distances
-    # Shared by every bone: path lengths' logs and the unit directions between sphere centres.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_path = np.log(np.maximum(D, 1e-9))
-    offset = C[None, :, :] - C[:, None, :]                                  # [S, S, 3] u -> v
-    norm = np.linalg.norm(offset, axis=2)
-    unit = offset / np.where(norm > 0, norm, 1.0)[:, :, None]
     for k in range(1, K):
         p = reduced.parents[k]
         vectors[k] = tpos[k] - tpos[p]
-        cost = WEIGHTS["length"] * (log_path - np.log(reduced.lengths[k])) ** 2
-        cos = np.where(norm > 0, unit @ (vectors[k] / np.linalg.norm(vectors[k])), -1.0)
+        # Only the block of the parent's candidates by this joint's is finite; a limb's end has a few dozen
+        # candidates, so most bones cost |S| x ends, not |S|^2 (the orientation search builds this 10 times).
+        rows, cols = candidates[p], candidates[k]
+        path = D[np.ix_(rows, cols)]
+        offset = C[cols][None, :, :] - C[rows][:, None, :]
+        norm = np.linalg.norm(offset, axis=2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cost = WEIGHTS["length"] * (np.log(np.maximum(path, 1e-9)) - np.log(reduced.lengths[k])) ** 2
+            cos = np.where(norm > 0, (offset @ (vectors[k] / np.linalg.norm(vectors[k]))) / norm, -1.0)
         cost += WEIGHTS["direction"] * (1.0 - cos)
         if is_foot[k]:
-            cost += feet_cost[None, :]
+            cost += feet_cost[cols][None, :]
         if reduced.joints[k] in fat:
-            cost += thinness[None, :]
-        mask = np.full((S, S), np.inf)
-        mask[np.ix_(candidates[p], candidates[k])] = 0.0
-        cost += mask
-        cost[~np.isfinite(D)] = np.inf
-        bone_cost[k] = cost
+            cost += thinness[cols][None, :]
+        cost[~np.isfinite(path)] = np.inf
+        full = np.full((S, S), np.inf)
+        full[np.ix_(rows, cols)] = cost
+        bone_cost[k] = full
     root_cost = np.full(S, np.inf)
     root_cost[candidates[0]] = thinness[candidates[0]] if reduced.joints[0] in fat else 0.0
 
@@ -233,11 +233,17 @@ def shared_length(graph: SphereGraph, source: int, used: np.ndarray) -> np.ndarr
     parent[source] = source
     own = np.where(used, np.linalg.norm(graph.centers - graph.centers[parent], axis=1), 0.0)
     own[source] = 0.0
+    if not own.any():
+        return own
     total, jump = own, parent
-    for _ in range(max(1, int(np.ceil(np.log2(max(n, 2)))))):
-        total = total + total[jump] * (jump != np.arange(n))
+    # Paths are far shallower than the log2(S) doublings of the worst case: stop once every pointer has
+    # reached the source (whose sum is 0).
+    while True:
+        pending = jump != source
+        if not pending.any():
+            return total
+        total = total + total[jump] * pending
         jump = jump[jump]
-    return total
 
 
 def overlap_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, used: np.ndarray,
