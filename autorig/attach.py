@@ -36,7 +36,7 @@ WELD_TOL = 1e-7         # vertices closer than this (x bounding-box diagonal) ar
 MIN_DIST = 1e-5         # floor of d_i (x diagonal), so a bone touching the surface does not give H = inf
 COT_LIMIT = 100.0       # a face with a larger |cot| (an angle under ~0.6 degrees from 0 or 180) is a sliver
 RAY_NUDGE = 1e-3        # sideways offset of visibility rays, in units of a short edge (see sees_bone)
-HEAT_MAX_VERTICES = 20_000  # denser surfaces are solved on a simplified copy (see _weights_via_coarse_surface)
+HEAT_MAX_VERTICES = 12_000  # denser surfaces are solved on a simplified copy (see _weights_via_coarse_surface)
 _GENERIC_DIRECTION = np.array([0.5377, 0.8335, 0.1274]) / np.linalg.norm([0.5377, 0.8335, 0.1274])
 
 
