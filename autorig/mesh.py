@@ -453,18 +453,31 @@ class PreparedMesh:
 
     def reframed(self, up: str, front: str) -> "PreparedMesh":
         """The same mesh in the canonical frame of other axes (no new checks, no new working copy)."""
-        rotation = frame_rotation(up, front)
-        rotated = self.from_canonical(self.work_vertices) @ rotation.T
-        lo, hi = rotated.min(axis=0), rotated.max(axis=0)
-        height = float(hi[1] - lo[1])
-        offset = rotation.T @ np.array([lo[0] / 2 + hi[0] / 2, lo[1], lo[2] / 2 + hi[2] / 2])
-        moved = PreparedMesh(vertices=self.vertices, faces=self.faces, work_vertices=self.work_vertices,
-                             work_faces=self.work_faces, work_index=self.work_index, rotation=rotation,
-                             offset=offset, scale=1.0 / height, up=up, front=front, height=height)
+        moved = self._in_frame(up, front)
         change = moved.change_from(self)
         moved.vertices = change.apply(self.vertices)
         moved.work_vertices = change.apply(self.work_vertices)
         return moved
+
+    def frame_change(self, up: str, front: str) -> "FrameChange":
+        """The map from this canonical frame to that of other axes, without moving any vertex."""
+        return self._in_frame(up, front).change_from(self)
+
+    def _in_frame(self, up: str, front: str) -> "PreparedMesh":
+        """A PreparedMesh with the frame of (up, front) whose vertex arrays are still this one's."""
+        rotation = frame_rotation(up, front)
+        # Frames differ by signed axis permutations, which map the working mesh's bounding box onto the new
+        # one exactly: its 8 corners give the new box without rotating every vertex (orientation detection
+        # asks for 8 frames: 0.45 s on a 200k-face scan).
+        lo, hi = self.work_vertices.min(axis=0), self.work_vertices.max(axis=0)
+        corners = np.where(np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], bool), hi, lo)
+        rotated = self.from_canonical(corners) @ rotation.T
+        lo, hi = rotated.min(axis=0), rotated.max(axis=0)
+        height = float(hi[1] - lo[1])
+        offset = rotation.T @ np.array([lo[0] / 2 + hi[0] / 2, lo[1], lo[2] / 2 + hi[2] / 2])
+        return PreparedMesh(vertices=self.vertices, faces=self.faces, work_vertices=self.work_vertices,
+                            work_faces=self.work_faces, work_index=self.work_index, rotation=rotation,
+                            offset=offset, scale=1.0 / height, up=up, front=front, height=height)
 
     def change_from(self, other: "PreparedMesh") -> "FrameChange":
         """The map from ``other``'s canonical frame to this one's."""

@@ -102,7 +102,7 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     # then searched in full, which is what tells front from back.
     problems = {}
     for u, f in candidates:
-        change = prepared.reframed(u, f).change_from(prepared)
+        change = prepared.frame_change(u, f)
         problems[(u, f)] = graph.moved(change.apply(graph.centers), change.scale)
     costs = {key: _embedding_cost(moved, template, 0) for key, moved in problems.items()}
     for key in sorted(costs, key=lambda k: (costs[k] + _handicap(*k), k))[:FULL_SEARCHES]:
