@@ -44,6 +44,13 @@ class SurfaceQuery:
             return np.zeros(0)
         return self._winding_tree.winding_number(np.ascontiguousarray(points, dtype=np.float64))
 
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """[N] unsigned distance of each point to the surface (no winding numbers: cheaper than ``closest``)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) == 0:
+            return np.zeros(0)
+        return np.sqrt(self._tree.squared_distance(self.vertices, self.faces, points)[0])
+
     def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
                 known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point.

@@ -54,8 +54,7 @@ def mirror_errors(surface, samples: int = 2000) -> np.ndarray:
     for axis in range(3):
         mirrored = points.copy()
         mirrored[:, axis] = 2 * centre[axis] - mirrored[:, axis]
-        depth, _ = surface.closest(mirrored)
-        out[axis] = float(np.mean(np.abs(depth))) / diagonal
+        out[axis] = float(np.mean(surface.distance(mirrored))) / diagonal
     return out
 
 
