@@ -65,8 +65,8 @@ Parallelism
     (``pip install 'autorig[cluster]'``); its workers need the same autorig version, and read and write no
     files: the inputs' bytes travel with the tasks and the outputs' bytes come back, so the cluster needs no
     shared file system and this process alone writes into ``output_dir``. Worker processes run numerical
-    libraries with one thread each (OMP/MKL/OPENBLAS_NUM_THREADS=1 unless already set, as Dask's own nanny
-    does): it avoids oversubscribing the cores, is faster per rig even alone, and keeps local and cluster
+    libraries with one thread each (OMP/MKL/OPENBLAS/IGL_NUM_THREADS=1 unless already set, as Dask's own
+    nanny does for the first three): it avoids oversubscribing the cores, is faster per rig even alone, and keeps local and cluster
     results alike.
 """
 from __future__ import annotations
@@ -101,7 +101,9 @@ EXIT_SOME_FAILED = 7  # some of the batch's assets failed (6 is rig --strict's l
 _CONFIG_KEYS = ("template", "up", "front")
 _MANIFEST_VERSION = 1
 _MANIFEST_INTERVAL = 2.0  # seconds between manifest saves while running, so an interrupted batch resumes
-_THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+# libigl's own thread pool (its AABB distance queries and winding numbers) reads IGL_NUM_THREADS: without it each
+# worker of "-j 2" would start two threads and the pair would fight over the two cores.
+_THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS", "IGL_NUM_THREADS")
 
 
 class ConfigError(InputError):
