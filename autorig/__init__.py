@@ -3,17 +3,18 @@
     import autorig
     result = autorig.rig("hero.obj", "biped")      # -> autorig.Rig
     result.joints, result.names, result.parents, result.weights
+    result = autorig.skin("hero.obj", "my_rig.glb")  # weights only, for your own skeleton
 
 Nothing heavy is imported here: the command line must start fast, so numpy, scipy, trimesh and libigl load
 only when a rig is actually computed.
 """
 __version__ = "0.1.0"
 
-__all__ = ["rig", "Rig", "RigOptions", "AutorigError", "__version__"]
+__all__ = ["rig", "Rig", "RigOptions", "skin", "SkinOptions", "AutorigError", "__version__"]
 
 
 def __getattr__(name):
-    if name in ("rig", "RigOptions"):
+    if name in ("rig", "RigOptions", "skin", "SkinOptions"):
         from . import pipeline
         return getattr(pipeline, name)
     if name == "Rig":

@@ -2,6 +2,7 @@
 
     autorig hero.obj                        # rig with the biped template -> hero.rigged.glb
     autorig hero.obj --template quadruped -o out/hero.json
+    autorig hero.obj --skeleton my_rig.glb  # weights only, for your own skeleton (.json, .glb/.gltf, .bvh)
     autorig rig hero.obj ...                # the same: ``rig`` is the default command
     autorig templates                       # list the built-in templates
     autorig batch assets/ -o rigged/        # every mesh in a folder (autorig.batch)
@@ -40,7 +41,7 @@ Exit codes:
   0    success
   1    general error
   2    bad input mesh, or a command-line usage error
-  3    unknown or malformed template
+  3    unknown or malformed template, or a bad --skeleton file
   4    output cannot be written
   5    the mesh was read but could not be rigged
   6    --strict: the rig's confidence is below the threshold (nothing written)
@@ -155,12 +156,19 @@ def cli():
               help="--template auto: voxels along the mesh's longest side (finer finds thinner limbs).")
 @click.option("--max-segments", type=click.IntRange(min=1), default=8, show_default=True, metavar="N",
               help="--template auto: the most bones per chain (limb), plus one for each chain hanging from it.")
+@click.option("-s", "--skeleton", "skeleton_file", metavar="FILE",
+              help="Your own skeleton (.json, .glb/.gltf, .bvh): no embedding, only skin weights for its joints.")
+@click.option("--skeleton-scale", default=None, metavar="FLOAT|auto",
+              help="--skeleton: multiply its positions by FLOAT, or auto: fit it to the mesh's size. "
+                   "[default: auto for .bvh, else 1 (positions in the mesh's units)]")
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
-                strict: bool, preview: bool, voxels: int, max_segments: int, verbose: bool, quiet: bool):
-    """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result.
+                strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
+                skeleton_scale: str | None, verbose: bool, quiet: bool):
+    """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
+    --skeleton, compute skin weights for your own skeleton.
 
     On success prints one line: the mesh, template, joint and vertex counts, time and output path.
     """
@@ -171,6 +179,8 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     from .mesh import check_mesh_path, frame_rotation
     from .template import load_template
 
+    if skeleton_file is not None or skeleton_scale is not None:
+        return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, verbose, quiet, start)
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if "auto" not in (up, front):
@@ -216,6 +226,73 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         click.echo(f"{mesh}: {result.template}, {len(result.names)} joints, {len(result.vertices)} vertices, "
                    f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}"
                    + (f" (preview {preview_path})" if preview else ""))
+
+
+def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | None, output: str | None,
+                  fmt: str | None, preview: bool, verbose: bool, quiet: bool, start: float) -> None:
+    """``autorig MESH --skeleton FILE``: weights for the user's skeleton (``autorig.pipeline.skin``)."""
+    ctx = click.get_current_context()
+    if skeleton_file is None:
+        raise click.UsageError("--skeleton-scale applies to --skeleton")
+    # Options of the embedding mean nothing here; given explicitly, they are a mistake worth saying.
+    for param in ("template", "up", "front", "strict", "voxels", "max_segments"):
+        if ctx.get_parameter_source(param) == click.core.ParameterSource.COMMANDLINE:
+            raise click.UsageError(f"--{param.replace('_', '-')} does not apply with --skeleton (the skeleton is "
+                                   f"given, not embedded)")
+    scale: float | str | None = None
+    if skeleton_scale is not None:
+        try:
+            scale = "auto" if skeleton_scale.lower() == "auto" else float(skeleton_scale)
+        except ValueError:
+            scale = None
+        if scale is None or (scale != "auto" and not (0 < scale < float("inf"))):
+            raise click.BadParameter(f"{skeleton_scale!r} is not a positive number or auto",
+                                     param_hint="'--skeleton-scale'")
+
+    from .exchange import default_output_path, write_rig
+    from .exchange.skeleton import read_skeleton
+    from .mesh import check_mesh_path
+
+    mesh_path = check_mesh_path(mesh)
+    if output:
+        _refuse_input(Path(output), mesh_path)
+        _refuse_input(Path(output), Path(skeleton_file))
+    fmt = fmt or _format_of(output)
+    out_path = Path(output) if output else default_output_path(mesh_path, fmt)
+    _check_output(out_path, fmt)
+    if preview:
+        _require_matplotlib("--preview")
+    with quiet_libraries(shown=verbose):
+        skeleton = read_skeleton(skeleton_file)
+    if fmt == "pinocchio" and (skeleton.parents < 0).sum() != 1:
+        raise click.UsageError(f"--format pinocchio needs a skeleton with one root joint; {skeleton_file} has "
+                               f"{int((skeleton.parents < 0).sum())}")
+
+    from .pipeline import SkinOptions, skin
+    with quiet_libraries(shown=verbose):
+        result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale))
+        write_start = time.perf_counter()
+        write_rig(result, out_path, fmt, input_path=mesh_path)
+        written = time.perf_counter()
+        if preview:
+            from .preview import render_preview
+            preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
+            render_preview(result, preview_path, title=_preview_title(mesh_path.name, result))
+    end = time.perf_counter()
+
+    if verbose:
+        timings = {**result.timings, "write": written - write_start}
+        if preview:
+            timings["preview"] = end - written
+        width = max(map(len, timings))
+        for stage, seconds in timings.items():
+            click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
+    if not quiet:
+        info = result.info
+        cold = sum(map(len, info["cold_bones"].values()))
+        click.echo(f"{mesh}: skeleton {skeleton_file}, {len(result.names)} joints ({info['joints_weighted']} "
+                   f"weighted, {len(info['tip_bones'])} tip bones, {cold} bones left cold), {len(result.vertices)} "
+                   f"vertices, {end - start:.2f} s -> {out_path}" + (f" (preview {preview_path})" if preview else ""))
 
 
 @cli.command("templates", short_help="List the built-in templates.")

@@ -16,6 +16,11 @@ class TemplateError(AutorigError):
     exit_code = 3
 
 
+class SkeletonError(TemplateError):
+    """A ``--skeleton`` file that cannot be read or does not describe a joint tree (same exit code as a bad
+    template: both are the skeleton the user supplied)."""
+
+
 class OutputError(AutorigError):
     """The output path cannot be written."""
     exit_code = 4

@@ -12,6 +12,13 @@
                -> refine          continuous optimisation of all joints
                -> bone_heat       skin weights for every input vertex
                -> confidence      how much to trust the result
+
+``skin`` is the same without the embedding, for the user's own skeleton (``autorig MESH --skeleton FILE``):
+
+    mesh, skeleton file -> prepare    canonical scale, clean working copy
+                        -> fit        a BVH's units to the mesh's (or a given scale)
+                        -> plan_heat  which bones heat: tips, cold bones, split bones (``autorig.bones``)
+                        -> bone_heat  skin weights for every input vertex
 """
 from __future__ import annotations
 
@@ -95,6 +102,70 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded)})
+
+
+@dataclass
+class SkinOptions:
+    """scale: how the skeleton file's positions become the mesh's: a number multiplies them (the mesh's units
+    per file unit), "auto" scales and moves the skeleton to fit the mesh's bounding box (see
+    ``autorig.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
+    mesh's) and 1 for JSON and glTF skeletons (taken as they are, in the mesh's coordinates)."""
+    scale: float | str | None = None
+
+
+def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
+    """Skin weights of a mesh for the user's own skeleton: no embedding, only bone heat.
+
+    mesh: a path (OBJ, PLY, STL, OFF, glTF/GLB) or a pair (vertices [V, 3], faces [F, 3]).
+    skeleton: a path (.json, .glb/.gltf, .bvh; see ``autorig.exchange.skeleton``) or a ``Skeleton``.
+    Returns a ``Rig`` with the skeleton's joints (names, hierarchy, parents first) in the mesh's coordinates and
+    weights for every input vertex in input order; a glTF skeleton's nodes and bind pose ride along
+    (``Rig.joint_nodes``) so that its glTF output keeps them. ``info`` says which leaves carry a tip bone and
+    which bones were left cold because they lie outside the mesh or have no length (``autorig.bones``).
+    """
+    from .attach import bone_heat
+    from .bones import fit_to_mesh, plan_heat
+    from .exchange.skeleton import Skeleton, read_skeleton
+    from .mesh import check_mesh, load_mesh, prepare
+
+    options = options or SkinOptions()
+    timings: dict[str, float] = {}
+    stage = _stage_timer(timings)
+
+    with stage("load"):
+        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, "mesh")
+        name = Path(skeleton).stem if isinstance(skeleton, (str, Path)) else "skeleton"
+        skeleton = skeleton if isinstance(skeleton, Skeleton) else read_skeleton(skeleton)
+    with stage("prepare"):
+        # Only the canonical scale matters here (the rules and the heat do not depend on the mesh's units);
+        # the longest side as "up" keeps that scale sane for meshes flat along y.
+        extent = np.ptp(vertices[np.unique(faces)], axis=0)
+        up, front = (("x", "y", "z")[a] for a in np.argsort(-extent, kind="stable")[:2])
+        prepared = prepare(vertices, faces, up, front, name=name)
+    with stage("fit"):
+        scale = options.scale if options.scale is not None else ("auto" if skeleton.kind == "bvh" else 1.0)
+        positions, tips, factor = fit_to_mesh(skeleton.positions, skeleton.tips, vertices[np.unique(faces)],
+                                              scale)
+    with stage("bones"):
+        plan = plan_heat(prepared.work_vertices, prepared.work_faces, skeleton.names,
+                         prepared.to_canonical(positions), skeleton.parents, prepared.to_canonical(tips))
+    with stage("skin weights"):
+        J = len(skeleton.names)
+        # Tip joints are virtual: their bones' heat goes to the leaves (plan.owners), so their columns are empty.
+        weights = bone_heat(prepared.vertices, prepared.faces, plan.joints, plan.parents, owners=plan.owners)[:, :J]
+
+    carrying = weights.max(axis=0) > 0
+    return Rig(
+        names=list(skeleton.names), parents=skeleton.parents.copy(), joints=positions, weights=weights,
+        vertices=vertices, faces=faces, template=(skeleton.joint_nodes.skin_name if skeleton.joint_nodes else "")
+        or name, timings=timings, joint_nodes=skeleton.joint_nodes,
+        info={"skeleton": skeleton.kind, "skeleton_scale": round(factor, 6),
+              "joints_weighted": int(carrying.sum()), "tip_bones": plan.tips,
+              "cold_bones": {reason: [f"{skeleton.names[skeleton.parents[skeleton.names.index(c)]]} -> {c}"
+                                      for c in children]
+                             for reason, children in (("outside", plan.outside), ("along_other_bones", plan.doubled),
+                                                      ("zero_length", plan.zero_length)) if children},
+              "all_bones_heat": plan.fallback})
 
 
 def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage, timings) -> Rig:

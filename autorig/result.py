@@ -7,6 +7,30 @@ import numpy as np
 
 
 @dataclass
+class JointNodes:
+    """A source glTF's joint hierarchy, kept so that a rig re-weighted on it is written back with the same
+    joints, names, node transforms and bind pose (``autorig MESH --skeleton rig.glb``).
+
+    names         [N] node names: the J joints first, in the rig's joint order, then the K = N - J non-joint
+                  nodes above them (an armature node, a helper between two joints)
+    transforms    [N] each node's local transform as the source file gives it: {"matrix": [16]} (column-major)
+                  or any of {"translation": [3], "rotation": [4] (x, y, z, w), "scale": [3]}
+    children      [N] lists of node indices (into ``names``)
+    roots         the scene's root nodes among them
+    inverse_bind  [J, 4, 4] float64 the skin's inverse bind matrices (row-major), in the rig's joint order
+    skeleton      node index of the skin's ``skeleton`` property, or None
+    skin_name     the skin's name
+    """
+    names: list[str]
+    transforms: list[dict]
+    children: list[list[int]]
+    roots: list[int]
+    inverse_bind: np.ndarray
+    skeleton: int | None = None
+    skin_name: str = ""
+
+
+@dataclass
 class Rig:
     """A skeleton embedded in a mesh, with skin weights.
 
@@ -22,6 +46,8 @@ class Rig:
     template  name of the template that was embedded
     timings   {stage name: seconds}
     info      free-form diagnostics (detected axes, penalties, ...), JSON-serialisable
+    joint_nodes  the source glTF's joint nodes when the skeleton came from one (``JointNodes``), else None:
+              the glTF writers then keep its hierarchy, transforms and inverse bind matrices
     """
     names: list[str]
     parents: np.ndarray
@@ -32,6 +58,7 @@ class Rig:
     template: str = ""
     timings: dict[str, float] = field(default_factory=dict)
     info: dict = field(default_factory=dict)
+    joint_nodes: JointNodes | None = None
 
     @property
     def bones(self) -> list[tuple[int, int]]:

@@ -12,6 +12,11 @@ What is written (node index = joint index, so the file reads back in the rig's o
   past 256 joints) and ``WEIGHTS_0`` (float32): each vertex's 4 strongest joints, see :func:`top4_influences`;
 - one skin over all joints, named after the template, whose ``inverseBindMatrices`` translate by minus each
   joint's position (the bind pose is the rest pose the rig was built in).
+
+A rig re-weighted on a glTF's own skeleton (``rig.joint_nodes``, from ``autorig MESH --skeleton rig.glb``) keeps
+that file's joints instead: nodes ``0 .. J-1`` are its joints with their names and local transforms (matrix or
+TRS) as the file had them, then the non-joint nodes above them, then the mesh node; the skin has the file's
+inverse bind matrices, name and ``skeleton`` node.
 """
 from __future__ import annotations
 
@@ -124,8 +129,11 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
 
     influences, influence_weights = top4_influences(rig.weights)
     joint_dtype = np.uint8 if J <= 256 else np.uint16
-    ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
-    ibm[:, :3, 3] = -joints
+    if rig.joint_nodes is None:
+        ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
+        ibm[:, :3, 3] = -joints
+    else:
+        ibm = np.asarray(rig.joint_nodes.inverse_bind, dtype=np.float32)
     positions = vertices.astype(np.float32)
 
     blob = bytearray()
@@ -153,13 +161,22 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
     # glTF matrices are column-major: store each transpose row by row.
     inverse_bind = add(ibm.transpose(0, 2, 1).reshape(J, 16), pygltflib.FLOAT, "MAT4", None)
 
-    nodes = []
-    for j, name in enumerate(rig.names):
-        offset = joints[j] - joints[parents[j]] if parents[j] >= 0 else joints[j]
-        nodes.append(Node(name=str(name), translation=[float(x) for x in offset],
-                          children=[int(c) for c in np.flatnonzero(parents == j)]))
+    source = rig.joint_nodes
+    if source is None:
+        nodes = []
+        for j, name in enumerate(rig.names):
+            offset = joints[j] - joints[parents[j]] if parents[j] >= 0 else joints[j]
+            nodes.append(Node(name=str(name), translation=[float(x) for x in offset],
+                              children=[int(c) for c in np.flatnonzero(parents == j)]))
+        roots = [int(r) for r in np.flatnonzero(parents < 0)]
+        skeleton_root = roots[0] if len(roots) == 1 else None
+    else:
+        # Re-weighted on a glTF's own skeleton: its nodes, transforms and bind pose go back as they were.
+        nodes = [Node(name=name, children=list(children), **transform)
+                 for name, transform, children in zip(source.names, source.transforms, source.children)]
+        roots, skeleton_root = list(source.roots), source.skeleton
+    mesh_node = len(nodes)
     nodes.append(Node(name="mesh", mesh=0, skin=0))
-    roots = [int(r) for r in np.flatnonzero(parents < 0)]
 
     primitive = Primitive(attributes=Attributes(POSITION=position, NORMAL=normal, JOINTS_0=joint_slots,
                                                 WEIGHTS_0=weight_slots),
@@ -167,11 +184,11 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
     doc = GLTF2(
         asset=Asset(version="2.0", generator=f"autorig {__version__}"),
         scene=0,
-        scenes=[Scene(nodes=roots + [J])],
+        scenes=[Scene(nodes=roots + [mesh_node])],
         nodes=nodes,
         meshes=[Mesh(name="mesh", primitives=[primitive])],
-        skins=[Skin(name=rig.template or "skin", inverseBindMatrices=inverse_bind, joints=list(range(J)),
-                    skeleton=roots[0] if len(roots) == 1 else None)],
+        skins=[Skin(name=(source.skin_name if source else "") or rig.template or "skin",
+                    inverseBindMatrices=inverse_bind, joints=list(range(J)), skeleton=skeleton_root)],
         accessors=accessors,
         bufferViews=views,
         buffers=[Buffer(byteLength=len(blob))],
