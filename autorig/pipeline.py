@@ -56,13 +56,12 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .confidence import rig_confidence
     from .distance import distance_field
     from .embed import embed
-    from .extract import AUTO
     from .graph import sphere_graph
     from .medial import medial_samples, pack_spheres
     from .mesh import check_mesh, load_mesh, prepare
     from .orient import detect_orientation, reorient, working_axes
     from .refine import place_on_paths, refine
-    from .template import Template, load_template
+    from .template import AUTO, Template, load_template
 
     options = options or RigOptions()
     timings: dict[str, float] = {}
@@ -75,7 +74,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     if template == AUTO:
         return _rig_without_template(vertices, faces, name, options, stage, timings)
     with stage("prepare"):
-        prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name)
+        prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name, checked=True)
     with stage("distance field"):
         field = distance_field(*prepared.coarse())
     with stage("medial spheres"):
@@ -133,7 +132,8 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, "mesh")
+        mesh_name = Path(mesh).name if isinstance(mesh, (str, Path)) else "mesh"
+        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, mesh_name)
         name = Path(skeleton).stem if isinstance(skeleton, (str, Path)) else "skeleton"
         skeleton = skeleton if isinstance(skeleton, Skeleton) else read_skeleton(skeleton)
     with stage("prepare"):
@@ -141,7 +141,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
         # the longest side as "up" keeps that scale sane for meshes flat along y.
         extent = np.ptp(vertices[np.unique(faces)], axis=0)
         up, front = (("x", "y", "z")[a] for a in np.argsort(-extent, kind="stable")[:2])
-        prepared = prepare(vertices, faces, up, front, name=name)
+        prepared = prepare(vertices, faces, up, front, name=mesh_name, checked=True)
     with stage("fit"):
         scale = options.scale if options.scale is not None else ("auto" if skeleton.kind == "bvh" else 1.0)
         positions, tips, factor = fit_to_mesh(skeleton.positions, skeleton.tips, vertices[np.unique(faces)],
@@ -178,7 +178,7 @@ def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage
 
     up, front = fixed_axes(options.up, options.front)
     with stage("prepare"):
-        prepared = prepare(vertices, faces, up, front, name=name)
+        prepared = prepare(vertices, faces, up, front, name=name, checked=True)
     with stage("voxels"):
         grid = voxelize(prepared.work_vertices, prepared.work_faces, options.voxels)
     with stage("distance map"):

@@ -24,6 +24,8 @@ import numpy as np
 
 from .errors import TemplateError
 
+AUTO = "auto"   # the template name that asks for a template-free skeleton (autorig.extract)
+
 
 @dataclass(frozen=True)
 class ReducedSkeleton:

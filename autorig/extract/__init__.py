@@ -27,8 +27,8 @@ from .medial import medial_surface
 from .paths import path_tree
 from .skeleton import control_skeleton
 from .voxels import distance_map, voxelize
+from ..template import AUTO
 
-AUTO = "auto"   # the template name that asks for a template-free skeleton
 
 __all__ = ["AUTO", "voxelize", "distance_map", "medial_surface", "inside_graph", "connected_medial", "path_tree",
            "control_skeleton", "fixed_axes", "skeleton_confidence"]
