@@ -71,7 +71,9 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
         used_by_state[placed] = used
         candidates = problem.candidates[k]
         cost = problem.bone_cost[k][u, candidates].copy()
-        cost[np.isin(candidates, placed)] = np.inf
+        taken = np.zeros(S, dtype=bool)
+        taken[list(placed)] = True
+        cost[taken[candidates]] = np.inf
         grandparent = parents[p]
         if grandparent >= 0:
             cost += backtrack_penalty(problem, k, placed[grandparent], u, candidates)
