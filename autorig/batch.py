@@ -28,34 +28,47 @@ Per-asset options: ``autorig.toml`` (or ``autorig.json``) in ``input_dir`` or an
     front = "y"
 
     [files."bipeds/*"]
-    template = "biped"
-    front = "z"
+    skeleton = "rigs/studio.glb"  # the artists' own skeleton: only skin weights (``autorig.pipeline.skin``)
+
+    [files."octopus*"]
+    template = "auto"             # a skeleton made from the shape itself
 
 The JSON form is the same document: ``{"template": "quadruped", "files": {"horse*.obj": {"template": "horse"}}}``.
-Keys are ``template`` (a built-in name, or a ``.json`` template file relative to the config's folder), ``up``
-and ``front`` (``x``, ``-z``, ... or ``auto`` to detect it, as on the command line). A glob without ``/``
-matches the file name in this folder or any folder below; a glob with ``/`` matches the path relative to the
-config's folder; ``*`` also matches ``/``; matching is case-sensitive. Options cascade as in EditorConfig,
-each key on its own: the command line's ``--template``, ``--up`` and ``--front`` first, then each config from
-``input_dir`` down to the asset's folder (so the nearest config wins), and within one config its top-level
-keys, then the matching ``files`` entries in the order written (a later match wins). A malformed config, an
-unknown key or template, or a bad axis stops the batch before any rigging (``ConfigError``,
-``TemplateError``).
+Keys are ``template`` (a built-in name, ``auto``, or a ``.json`` template file relative to the config's folder),
+``skeleton`` (a ``.json``, ``.glb``/``.gltf`` or ``.bvh`` skeleton file relative to the config's folder, as for
+``autorig MESH --skeleton FILE``), ``up`` and ``front`` (``x``, ``-z``, ... or ``auto`` to detect it, as on the
+command line). A glob without ``/`` matches the file name in this folder or any folder below; a glob with ``/``
+matches the path relative to the config's folder; ``*`` also matches ``/``; matching is case-sensitive.
+
+Options cascade as in EditorConfig, each key on its own: the command line's ``--template`` (or ``--skeleton``),
+``--up`` and ``--front`` first, then each config from ``input_dir`` down to the asset's folder (so the nearest
+config wins), and within one config its top-level keys, then the matching ``files`` entries in the order
+written (a later match wins). ``template`` and ``skeleton`` are alternatives, settled together: setting one
+drops the other one inherited, and one table may not set both. With a skeleton, up and front do not apply
+(reported as ""); the skeleton's scale (``SkinOptions``, ``--skeleton-scale``) and template "auto"'s voxels and
+max_segments (``RigOptions``, ``--voxels``, ``--max-segments``) come from the command line, for every asset. A
+malformed config, an unknown key or template, an unreadable skeleton or a bad axis stops the batch before any
+rigging (``ConfigError``, ``TemplateError``, ``SkeletonError``); skeleton files are read once each, here, and
+travel to the workers parsed.
 
 Resuming
     ``output_dir/.autorig-batch.json`` (the manifest) keeps, per asset, a key: the SHA-256 of the input's
-    bytes (a ``.gltf`` with the buffers and images it names), of the effective template's content, up, front,
-    the output format and the autorig version. An asset whose key is unchanged is skipped (status
-    ``skipped``, ``previous`` telling how it went) unless ``force``; that holds for failures too, since
-    rigging is deterministic: an unchanged asset fails the same way again. A skipped asset that had rigged is
-    skipped only while its output still exists. Crashed or lost workers and internal errors are not
-    remembered, so a rerun tries those assets again. Entries of assets no longer found stay (a narrower
-    ``extensions`` must not forget them). Outputs are written without timings (they go to the
-    report instead), so rigging the same asset again, here or on a cluster, gives byte-identical files.
+    bytes (a ``.gltf`` with the buffers and images it names), of the effective template's content, up, front
+    (for template "auto": voxels and max_segments instead of the content; with a skeleton: the skeleton's
+    content, glTF nodes included, and its scale instead of all these), the output format and the autorig
+    version. Editing a skeleton file thus rigs again the assets that use it, and ``--voxels`` only those on
+    "auto". An asset whose key is unchanged is skipped (status ``skipped``, ``previous`` telling how it went)
+    unless ``force``; that holds for failures too, since rigging is deterministic: an unchanged asset fails
+    the same way again. A skipped asset that had rigged is skipped only while its output still exists.
+    Crashed or lost workers and internal errors are not remembered, so a rerun tries those assets again.
+    Entries of assets no longer found stay (a narrower ``extensions`` must not forget them). Outputs are
+    written without timings (they go to the report instead), so rigging the same asset again, here or on a
+    cluster, gives byte-identical files.
 
 Failures
-    One failing asset never stops the batch: it gets status ``failed`` and its one-line error. An asset that
-    rigged before and fails now loses its old output, which no longer matches its input.
+    One failing asset never stops the batch: it gets status ``failed`` and its one-line error (so does one
+    that asks for Pinocchio output with a skeleton of several roots, which that format cannot hold). An asset
+    that rigged before and fails now loses its old output, which no longer matches its input.
     ``BatchResult.exit_code`` is 0 when every asset is rigged (now or in an earlier run) and
     ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run.
 
@@ -75,6 +88,7 @@ import contextlib
 import fnmatch
 import hashlib
 import json
+import numbers
 import os
 import tempfile
 import time
@@ -86,7 +100,7 @@ from typing import Callable, Iterable, Iterator
 from urllib.parse import unquote
 
 from . import __version__
-from .errors import AutorigError, InputError, OutputError, TemplateError
+from .errors import AutorigError, InputError, OutputError, SkeletonError, TemplateError
 from .quiet import quiet_libraries
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
@@ -98,7 +112,7 @@ CONFIG_NAMES = ("autorig.toml", "autorig.json")
 MANIFEST_NAME = ".autorig-batch.json"
 EXIT_SOME_FAILED = 7  # some of the batch's assets failed (6 is rig --strict's low confidence)
 
-_CONFIG_KEYS = ("template", "up", "front")
+_CONFIG_KEYS = ("template", "skeleton", "up", "front")
 _MANIFEST_VERSION = 1
 _MANIFEST_INTERVAL = 2.0  # seconds between manifest saves while running, so an interrupted batch resumes
 # libigl's own thread pool (its AABB distance queries and winding numbers) reads IGL_NUM_THREADS: without it each
@@ -123,8 +137,9 @@ class AssetResult:
     output      path of its output relative to the output folder
     status      ``ok`` (rigged now), ``failed`` (now) or ``skipped`` (unchanged since an earlier run)
     previous    for ``skipped``: ``ok`` or ``failed``, the outcome that is kept; else None
-    template    name of the template used
-    up, front   the axes used
+    template    name of the template used (``auto`` for the template-free skeleton), or ``skeleton FILE`` for
+                the user's skeleton FILE (relative to the input folder when inside it)
+    up, front   the axes used ("" with a skeleton: they do not apply)
     error       the one-line error of a failure (also of a skipped earlier failure), naming the asset
     error_type  the error's class name (``InputError``, ``RigFailedError``, ...), else None
     confidence  ``rig.info["confidence"]`` when the pipeline reports one, else None
@@ -172,12 +187,16 @@ class BatchResult:
 
 @dataclass(frozen=True)
 class _Plan:
-    """One asset's work: where it is, where it goes, with which options, its resume key ("" when the input
-    could not be read), and its input's size in bytes."""
+    """One asset's work: where it is, where it goes, how (a template, or a skeleton, with the options for it),
+    what the report calls that (``label``), its resume key ("" when the input could not be read), and its
+    input's size in bytes."""
     rel: str
     output: str
-    template: object  # a loaded autorig.template.Template
-    up: str
+    template: object  # a loaded autorig.template.Template, or template.AUTO; None with a skeleton
+    skeleton: object  # an autorig.exchange.skeleton.Skeleton, or None
+    options: object   # the RigOptions (template) or SkinOptions (skeleton) to rig it with
+    label: str
+    up: str           # "" with a skeleton
     front: str
     key: str
     size: int
@@ -185,24 +204,31 @@ class _Plan:
 
 @dataclass(frozen=True)
 class _Job:
-    """What a worker needs: the input's files by relative name (the mesh first), and the options."""
+    """What a worker needs: the input's files by relative name (the mesh first), the template or the parsed
+    skeleton (workers read no files but the ones sent), and the options."""
     name: str
     files: dict[str, bytes]
     template: object
-    up: str
-    front: str
+    skeleton: object
+    options: object
     fmt: str
 
 
 def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, template: str = "biped",
-               options=None, *, fmt: str = "glb", extensions: Iterable[str] = DEFAULT_EXTENSIONS,
+               options=None, *, skeleton: str | os.PathLike | None = None, skin_options=None,
+               fmt: str = "glb", extensions: Iterable[str] = DEFAULT_EXTENSIONS,
                jobs: int | None = None, scheduler: str | None = None, force: bool = False,
                report: str | os.PathLike | None = None, junit: str | os.PathLike | None = None,
                on_start: Callable[[int, int], None] | None = None,
                on_result: Callable[[AssetResult], None] | None = None) -> BatchResult:
     """Rig every mesh under ``input_dir`` into ``output_dir`` (see the module docstring).
 
-    template, options  defaults (a template name or file, a ``RigOptions``) that config files override
+    template, options  the default template (a name, a file, or "auto") that config files override, and the
+                       ``RigOptions``: up and front, defaults that config files override, and template
+                       "auto"'s voxels and max_segments, for every asset that uses "auto"
+    skeleton           a skeleton file (.json, .glb/.gltf, .bvh) for every asset that no config gives a
+                       template or another skeleton, in place of ``template``
+    skin_options       the ``SkinOptions`` (scale) for every asset rigged with a skeleton
     fmt                output format, one of ``autorig.exchange.FORMATS``
     extensions         file extensions that count as meshes (without the dot, any case)
     jobs               local worker processes (default: the CPUs this process may use)
@@ -212,15 +238,20 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 
-    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError`` (3), ``OutputError`` (4) or
+    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4) or
     ``ClusterError`` (1) for problems that stop the whole batch, all before any rigging; a failing asset
     only gets status ``failed``.
     """
     from .exchange import FORMATS
-    from .pipeline import RigOptions
+    from .pipeline import RigOptions, SkinOptions
 
     start = time.perf_counter()
     options = options or RigOptions()
+    skin_options = skin_options or SkinOptions()
+    scale = skin_options.scale
+    if scale is not None and scale != "auto" and (isinstance(scale, bool) or not isinstance(scale, numbers.Real)
+                                                  or not 0 < scale < float("inf")):
+        raise InputError(f"skeleton scale must be a positive number or auto, not {scale!r}")
     if fmt not in FORMATS:
         raise OutputError(f"unknown output format {fmt!r}: choose one of {', '.join(FORMATS)}")
     if jobs is not None and jobs < 1:
@@ -238,7 +269,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     except OSError as e:
         raise OutputError(f"cannot write {output_dir}: {e.strerror or e}") from None
 
-    plans = _plan(input_dir, output_dir, template, options, fmt, extensions)
+    plans = _plan(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options)
     manifest_path = output_dir / MANIFEST_NAME
     manifest = _read_manifest(manifest_path)
     results: dict[str, AssetResult] = {}
@@ -272,8 +303,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         # from finishing long after the others.
         for plan in sorted(todo, key=lambda p: (-p.size, p.rel)):
             try:
-                yield plan, _Job(plan.rel, _input_files(input_dir / plan.rel), plan.template, plan.up,
-                                 plan.front, fmt)
+                yield plan, _Job(plan.rel, _input_files(input_dir / plan.rel), plan.template, plan.skeleton,
+                                 plan.options, fmt)
             except InputError as e:  # unreadable, or gone since it was found
                 finished(plan, {"status": "failed", "remember": False, "error": str(e),
                                 "error_type": "InputError"})
@@ -317,17 +348,29 @@ def find_meshes(input_dir: str | os.PathLike, extensions: Iterable[str] = DEFAUL
     return sorted(found, key=lambda rel: rel.split("/"))
 
 
-def _plan(input_dir: Path, output_dir: Path, template, options, fmt: str, extensions) -> list[_Plan]:
-    """Each asset's effective options, output path and resume key; config and template errors raise here."""
+def _plan(input_dir: Path, output_dir: Path, template, options, fmt: str, extensions, skeleton=None,
+          skin_options=None) -> list[_Plan]:
+    """Each asset's effective options, output path and resume key; config, template and skeleton errors raise
+    here."""
+    from dataclasses import replace
+
     from .exchange import default_output_path
     from .mesh import AxisError, frame_rotation
+    from .pipeline import SkinOptions
+    from .template import AUTO
 
+    skin_options = skin_options or SkinOptions()
     rels = find_meshes(input_dir, extensions, exclude=output_dir)
-    templates = _TemplateCache()
-    base = {"template": templates.resolve(template, Path.cwd()), "up": options.up, "front": options.front}
+    templates, skeletons = _TemplateCache(), _SkeletonCache(input_dir)
+    base = {"template": None, "skeleton": None, "up": options.up, "front": options.front}
+    if skeleton is not None:
+        base["skeleton"] = str(skeleton)
+        skeletons.load(base["skeleton"])  # a bad file stops the batch even if every asset chose otherwise
+    else:
+        base["template"] = templates.resolve(template, Path.cwd())
     for key in ("up", "front"):
         base[key] = _check_axis(base[key], key, "")
-    configs = _Configs(input_dir, templates)
+    configs = _Configs(input_dir, templates, skeletons)
 
     outputs = {rel: default_output_path(rel, fmt).as_posix() for rel in rels}
     clashes = Counter(outputs.values())
@@ -344,22 +387,36 @@ def _plan(input_dir: Path, output_dir: Path, template, options, fmt: str, extens
     plans = []
     for rel in rels:
         effective = configs.options_for(rel, base)
-        try:
-            if "auto" not in (effective["up"], effective["front"]):
-                frame_rotation(effective["up"], effective["front"])
-        except AxisError as e:
-            raise ConfigError(f"{input_dir / rel}: {e} (from {configs.origin_of(rel)})") from None
-        loaded = templates.load(effective["template"])
+        if effective["skeleton"] is not None:
+            loaded, parsed = None, skeletons.load(effective["skeleton"])
+            scale = skin_options.scale
+            if scale is None:  # what skin() does with None, spelled out so that the key means the same
+                scale = "auto" if parsed.kind == "bvh" else 1.0
+            how = replace(skin_options, scale=scale if scale == "auto" else float(scale))
+            label, up, front = f"skeleton {skeletons.name_of(effective['skeleton'])}", "", ""
+            settings = {"skeleton": skeletons.digest(effective["skeleton"]), "skin": asdict(how)}
+        else:
+            up, front = effective["up"], effective["front"]
+            try:
+                if "auto" not in (up, front):
+                    frame_rotation(up, front)
+            except AxisError as e:
+                raise ConfigError(f"{input_dir / rel}: {e} (from {configs.origin_of(rel)})") from None
+            loaded, parsed = templates.load(effective["template"]), None
+            how = replace(options, up=up, front=front)
+            label = AUTO if loaded == AUTO else loaded.name
+            content = (_digest({"name": AUTO, "voxels": how.voxels, "max_segments": how.max_segments})
+                       if loaded == AUTO else templates.digest(loaded))
+            settings = {"template": content, "up": up, "front": front}
         try:
             files = _input_files(input_dir / rel)
         except InputError:
             key, size = "", 0  # fails as that asset's error when it is read again to be rigged
         else:
             key = _digest({"input": {name: hashlib.sha256(data).hexdigest() for name, data in files.items()},
-                           "template": templates.digest(loaded), "up": effective["up"],
-                           "front": effective["front"], "format": fmt, "autorig": __version__})
+                           **settings, "format": fmt, "autorig": __version__})
             size = sum(map(len, files.values()))
-        plans.append(_Plan(rel, outputs[rel], loaded, effective["up"], effective["front"], key, size))
+        plans.append(_Plan(rel, outputs[rel], loaded, parsed, how, label, up, front, key, size))
     return plans
 
 
@@ -371,15 +428,19 @@ class _TemplateCache:
 
     @staticmethod
     def resolve(spec: str, folder: Path) -> str:
-        """A built-in name stays a name; a file (a spec ending in ``.json`` or holding a path separator) becomes
-        an absolute path, relative to ``folder``."""
+        """A built-in name (or ``auto``) stays a name; a file (a spec ending in ``.json`` or holding a path
+        separator) becomes an absolute path, relative to ``folder``."""
         spec = str(spec)
         if spec.endswith(".json") or os.sep in spec or "/" in spec:
             return str((folder / spec).resolve())
         return spec
 
     def load(self, spec: str):
-        from .template import load_template
+        """The ``Template`` of ``spec``, or ``template.AUTO`` for "auto" (the template-free skeleton, made in the
+        worker from each mesh)."""
+        from .template import AUTO, load_template
+        if spec == AUTO:
+            return AUTO
         if spec not in self._loaded:
             self._loaded[spec] = load_template(spec)
         return self._loaded[spec]
@@ -393,12 +454,49 @@ class _TemplateCache:
                         "fat": list(template.fat)})
 
 
+class _SkeletonCache:
+    """Skeleton files, read (and so checked) and hashed once each, by their real path. A path is kept as given
+    (the command line's as typed, a config's joined to the config's folder) so that errors name it so."""
+
+    def __init__(self, root: Path):
+        self._root = Path(os.path.realpath(root))
+        self._loaded: dict[str, tuple[object, str]] = {}  # real path -> (Skeleton, digest)
+
+    def load(self, path: str):
+        from .exchange.skeleton import read_skeleton
+        real = os.path.realpath(path)
+        if real not in self._loaded:
+            skeleton = read_skeleton(path)
+            nodes = skeleton.joint_nodes
+            digest = _digest({
+                "names": list(skeleton.names), "parents": skeleton.parents.tolist(),
+                "positions": skeleton.positions.tolist(), "tips": skeleton.tips.tolist(), "kind": skeleton.kind,
+                "joint_nodes": None if nodes is None else {**asdict(nodes),
+                                                           "inverse_bind": nodes.inverse_bind.tolist()}})
+            self._loaded[real] = skeleton, digest
+        return self._loaded[real][0]
+
+    def digest(self, path: str) -> str:
+        """Hash of everything in the skeleton that shapes a rig (NaN tips included), so editing the file reruns
+        its assets and nothing else does."""
+        self.load(path)
+        return self._loaded[os.path.realpath(path)][1]
+
+    def name_of(self, path: str) -> str:
+        """How reports name the skeleton: its path relative to the input folder when inside it, else as given."""
+        real = Path(os.path.realpath(path))
+        if self._root in real.parents:
+            return real.relative_to(self._root).as_posix()
+        return os.path.normpath(path)
+
+
 class _Configs:
     """The per-folder config files under an input folder, and the options they give each asset."""
 
-    def __init__(self, root: Path, templates: _TemplateCache):
+    def __init__(self, root: Path, templates: _TemplateCache, skeletons: _SkeletonCache):
         self.root = root
         self._templates = templates
+        self._skeletons = skeletons
         # relative folder ("" for the root) -> (config file, its settings), or None when it has none
         self._by_folder: dict[str, tuple[Path, dict] | None] = {}
 
@@ -426,11 +524,21 @@ class _Configs:
         effective = dict(base)
         for rel_folder, _, settings in self._chain(rel):
             local = rel[len(rel_folder) + 1:] if rel_folder else rel
-            effective.update({k: v for k, v in settings.items() if k in _CONFIG_KEYS})
+            self._apply(effective, settings)
             for glob, entry in settings.get("files", {}).items():
                 if fnmatch.fnmatchcase(local if "/" in glob else PurePosixPath(local).name, glob):
-                    effective.update(entry)
+                    self._apply(effective, entry)
         return effective
+
+    @staticmethod
+    def _apply(effective: dict, settings: dict) -> None:
+        """One table's settings over ``effective``: key by key, but a template drops an inherited skeleton and
+        a skeleton an inherited template (they are two ways of saying which skeleton)."""
+        effective.update({k: v for k, v in settings.items() if k in _CONFIG_KEYS})
+        if "template" in settings:
+            effective["skeleton"] = None
+        if "skeleton" in settings:
+            effective["template"] = None
 
     def origin_of(self, rel: str) -> str:
         chain = self._chain(rel)
@@ -465,18 +573,28 @@ class _Configs:
         unknown = sorted(set(data) - set(allowed))
         if unknown:
             raise ConfigError(f"{path}: {where}unknown key {unknown[0]!r}; use {', '.join(allowed)}")
+        if "template" in data and "skeleton" in data:
+            raise ConfigError(f"{path}: {where}template and skeleton are alternatives (a template to embed, or "
+                              f"your own skeleton); set one")
         settings = {}
         for key in _CONFIG_KEYS:
             if key in data:
                 if not isinstance(data[key], str):
                     raise ConfigError(f"{path}: {where}{key} must be a string, not {data[key]!r}")
-                settings[key] = data[key] if key == "template" else _check_axis(data[key], key, f"{path}: {where}")
+                settings[key] = (data[key] if key in ("template", "skeleton")
+                                 else _check_axis(data[key], key, f"{path}: {where}"))
         if "template" in settings:
             settings["template"] = self._templates.resolve(settings["template"], path.parent)
             try:
                 self._templates.load(settings["template"])
             except TemplateError as e:
                 raise TemplateError(f"{path}: {where}{e}") from None
+        if "skeleton" in settings:
+            settings["skeleton"] = os.path.join(path.parent, settings["skeleton"])
+            try:
+                self._skeletons.load(settings["skeleton"])
+            except SkeletonError as e:
+                raise SkeletonError(f"{path}: {where}{e}") from None
         return settings
 
 
@@ -548,7 +666,7 @@ def _kept_result(plan: _Plan, entry: dict | None, output_dir: Path) -> AssetResu
     if entry.get("status") == "ok" and not (output_dir / plan.output).exists():
         return None
     return AssetResult(input=plan.rel, output=plan.output, status="skipped", previous=entry.get("status"),
-                       template=plan.template.name, up=plan.up, front=plan.front, error=entry.get("error"),
+                       template=plan.label, up=plan.up, front=plan.front, error=entry.get("error"),
                        error_type=entry.get("error_type"), confidence=entry.get("confidence"))
 
 
@@ -557,7 +675,7 @@ def _store(plan: _Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: s
     """Write a finished asset's output, remember its outcome when it would come out the same again, and
     return its ``AssetResult``."""
     result = AssetResult(input=plan.rel, output=plan.output, status=outcome["status"],
-                         template=plan.template.name, up=plan.up, front=plan.front, error=outcome.get("error"),
+                         template=plan.label, up=plan.up, front=plan.front, error=outcome.get("error"),
                          error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
                          seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}))
     out = output_dir / plan.output
@@ -612,7 +730,7 @@ def _rig_one(job: _Job) -> dict:
     """Rig one asset in a worker (a local process or a Dask worker): write its files to a scratch folder,
     rig, write the output there and return the output's bytes. Never raises for a problem with the asset."""
     from .exchange import write_rig
-    from .pipeline import RigOptions, rig
+    from .pipeline import rig, skin
 
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, quiet_libraries():
@@ -622,7 +740,16 @@ def _rig_one(job: _Job) -> dict:
             for name, data in job.files.items():
                 (source / name).parent.mkdir(parents=True, exist_ok=True)
                 (source / name).write_bytes(data)
-            result = rig(str(mesh), job.template, RigOptions(up=job.up, front=job.front))
+            if job.skeleton is None:
+                result = rig(str(mesh), job.template, job.options)
+            else:
+                roots = int((job.skeleton.parents < 0).sum())
+                if job.fmt == "pinocchio" and (roots != 1 or len(job.skeleton.names) < 2):
+                    # What write_pinocchio would refuse after the work; the command line says so up front.
+                    raise SkeletonError(f"{job.name}: the pinocchio format needs a skeleton with one root joint "
+                                        f"and at least one bone; this one has {roots} roots and "
+                                        f"{len(job.skeleton.names)} joints")
+                result = skin(str(mesh), job.skeleton, job.options)
             timings = dict(result.timings)
             result.timings = {}  # they differ on every run, and the outputs must not
             written = time.perf_counter()

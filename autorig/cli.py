@@ -51,6 +51,10 @@ Exit codes:
 
 _DEBUG = "autorig.debug"  # key in click's ctx.meta, which a group shares with its subcommands
 
+# Shared by 'autorig rig' and 'autorig batch'.
+VOXELS_HELP = "--template auto: voxels along the mesh's longest side (finer finds thinner limbs)."
+MAX_SEGMENTS_HELP = "--template auto: the most bones per chain (limb), plus one for each chain hanging from it."
+
 
 class DefaultCommandGroup(click.Group):
     """A click group with a default command: when the first argument is not a subcommand name (nor one of the
@@ -153,9 +157,9 @@ def cli():
               help="Also draw the rig to a PNG beside the output (hero.rigged.glb -> hero.rigged.png); "
                    "needs matplotlib (pip install 'autorig[preview]').")
 @click.option("--voxels", type=click.IntRange(min=8), default=96, show_default=True, metavar="N",
-              help="--template auto: voxels along the mesh's longest side (finer finds thinner limbs).")
+              help=VOXELS_HELP)
 @click.option("--max-segments", type=click.IntRange(min=1), default=8, show_default=True, metavar="N",
-              help="--template auto: the most bones per chain (limb), plus one for each chain hanging from it.")
+              help=MAX_SEGMENTS_HELP)
 @click.option("-s", "--skeleton", "skeleton_file", metavar="FILE",
               help="Your own skeleton (.json, .glb/.gltf, .bvh): no embedding, only skin weights for its joints.")
 @click.option("--skeleton-scale", default=None, metavar="FLOAT|auto",
@@ -239,15 +243,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
         if ctx.get_parameter_source(param) == click.core.ParameterSource.COMMANDLINE:
             raise click.UsageError(f"--{param.replace('_', '-')} does not apply with --skeleton (the skeleton is "
                                    f"given, not embedded)")
-    scale: float | str | None = None
-    if skeleton_scale is not None:
-        try:
-            scale = "auto" if skeleton_scale.lower() == "auto" else float(skeleton_scale)
-        except ValueError:
-            scale = None
-        if scale is None or (scale != "auto" and not (0 < scale < float("inf"))):
-            raise click.BadParameter(f"{skeleton_scale!r} is not a positive number or auto",
-                                     param_hint="'--skeleton-scale'")
+    scale = _skeleton_scale(skeleton_scale)
 
     from .exchange import default_output_path, write_rig
     from .exchange.skeleton import read_skeleton
@@ -264,9 +260,10 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
         _require_matplotlib("--preview")
     with quiet_libraries(shown=verbose):
         skeleton = read_skeleton(skeleton_file)
-    if fmt == "pinocchio" and (skeleton.parents < 0).sum() != 1:
-        raise click.UsageError(f"--format pinocchio needs a skeleton with one root joint; {skeleton_file} has "
-                               f"{int((skeleton.parents < 0).sum())}")
+    roots = int((skeleton.parents < 0).sum())
+    if fmt == "pinocchio" and (roots != 1 or len(skeleton.names) < 2):
+        raise click.UsageError(f"--format pinocchio needs a skeleton with one root joint and at least one bone; "
+                               f"{skeleton_file} has {roots} roots and {len(skeleton.names)} joints")
 
     from .pipeline import SkinOptions, skin
     with quiet_libraries(shown=verbose):
@@ -425,11 +422,23 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("-o", "--output", "output_dir", required=True, metavar="OUTPUT_DIR",
               help="Folder for the rigs; INPUT_DIR's folder structure is mirrored inside it.")
 @click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",
-              help="Template for assets that no autorig.toml gives one.")
+              help="Template for assets that no autorig.toml gives a template or skeleton: a built-in name, a "
+                   "template .json file, or auto (a skeleton made from each mesh's own shape).")
+@click.option("-s", "--skeleton", "skeleton_file", metavar="FILE",
+              help="Your own skeleton (.json, .glb/.gltf, .bvh), instead of --template, for assets that no "
+                   "autorig.toml gives a template or skeleton: only skin weights for its joints.")
+@click.option("--skeleton-scale", default=None, metavar="FLOAT|auto",
+              help="Assets with a skeleton (from --skeleton or autorig.toml): multiply its positions by FLOAT, or "
+                   "auto: fit it to the mesh's size. [default: auto for .bvh, else 1 (positions in the mesh's "
+                   "units)]")
 @click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
-              help="Up axis for assets that no autorig.toml gives one.")
+              help="Up axis for assets that no autorig.toml gives one (not for skeleton assets).")
 @click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
-              help="Front axis for assets that no autorig.toml gives one.")
+              help="Front axis for assets that no autorig.toml gives one (not for skeleton assets).")
+@click.option("--voxels", type=click.IntRange(min=8), default=96, show_default=True, metavar="N",
+              help=VOXELS_HELP)
+@click.option("--max-segments", type=click.IntRange(min=1), default=8, show_default=True, metavar="N",
+              help=MAX_SEGMENTS_HELP)
 @click.option("-f", "--format", "fmt", type=click.Choice(FORMATS), default="glb", show_default=True,
               help="Output format.")
 @click.option("--ext", default=BATCH_EXTENSIONS, show_default=True, metavar="EXT,...",
@@ -443,9 +452,10 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
 @_common_options
-def batch_command(input_dir: str, output_dir: str, template: str, up: str, front: str, fmt: str, ext: str,
-                  jobs: int | None, scheduler: str | None, force: bool, report: str | None, junit: str | None,
-                  quiet: bool):
+def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
+                  skeleton_scale: str | None, up: str, front: str, voxels: int, max_segments: int, fmt: str,
+                  ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
+                  junit: str | None, quiet: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
     \b
@@ -455,13 +465,22 @@ def batch_command(input_dir: str, output_dir: str, template: str, up: str, front
       template = "horse"
       up = "z"
       front = "y"
-    the nearest file winning (see the README). Assets unchanged since the last run (same content, options
-    and autorig version) are skipped unless --force. A failing asset does not stop the others: it is
-    reported, and the exit code is 7. Progress goes to stderr (a bar on a terminal, else one line per
-    asset); a summary line to stdout.
+      [files."hero.obj"]
+      skeleton = "hero_rig.glb"       # your own skeleton: only weights
+      [files."octopus*"]
+      template = "auto"               # a skeleton from the shape itself
+    the nearest file winning; template and skeleton replace each other (see the README). Assets unchanged
+    since the last run (same content, options and autorig version) are skipped unless --force. A failing
+    asset does not stop the others: it is reported, and the exit code is 7. Progress goes to stderr (a bar
+    on a terminal, else one line per asset); a summary line to stdout.
     """
+    ctx = click.get_current_context()
     if jobs is not None and scheduler:
         raise click.UsageError("-j/--jobs does not apply with --scheduler: the cluster's workers decide")
+    if skeleton_file is not None and ctx.get_parameter_source("template") == click.core.ParameterSource.COMMANDLINE:
+        raise click.UsageError("--template and --skeleton are alternatives: give one (autorig.toml files may "
+                               "still choose either per asset)")
+    scale = _skeleton_scale(skeleton_scale)
     extensions = [e.strip().lstrip(".") for e in ext.split(",") if e.strip()]
     from .mesh import FORMATS as MESH_FORMATS
     unknown = sorted({e for e in extensions if "." + e.lower() not in MESH_FORMATS})
@@ -471,20 +490,35 @@ def batch_command(input_dir: str, output_dir: str, template: str, up: str, front
 
     from .batch import rig_folder
     from .batch_progress import BatchProgress
-    from .pipeline import RigOptions
+    from .pipeline import RigOptions, SkinOptions
 
     progress = BatchProgress(quiet=quiet)
     try:
-        result = rig_folder(input_dir, output_dir, template, RigOptions(up=up.lower(), front=front.lower()),
-                            fmt=fmt, extensions=extensions, jobs=jobs, scheduler=scheduler, force=force,
-                            report=report, junit=junit, on_start=progress.on_start, on_result=progress.on_result)
+        result = rig_folder(input_dir, output_dir, template,
+                            RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments),
+                            skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
+                            extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
+                            junit=junit, on_start=progress.on_start, on_result=progress.on_result)
     finally:
         progress.close()
     if not quiet:
         counts = result.counts
         click.echo(f"{len(result.assets)} assets: {counts['ok']} rigged, {counts['failed']} failed, "
                    f"{counts['skipped']} unchanged, {result.seconds:.1f} s -> {output_dir}")
-    click.get_current_context().exit(result.exit_code)
+    ctx.exit(result.exit_code)
+
+
+def _skeleton_scale(text: str | None) -> float | str | None:
+    """``--skeleton-scale``'s value: None (not given), "auto" or a positive number, else a usage error."""
+    if text is None:
+        return None
+    try:
+        scale = "auto" if text.lower() == "auto" else float(text)
+    except ValueError:
+        scale = None
+    if scale is None or (scale != "auto" and not (0 < scale < float("inf"))):
+        raise click.BadParameter(f"{text!r} is not a positive number or auto", param_hint="'--skeleton-scale'")
+    return scale
 
 
 def _weakest(parts: dict[str, float]) -> str:

@@ -2,7 +2,8 @@
 
 One small folder is rigged for real once per module (``reference``): two low-resolution mannequins, a dog
 stored Z-up as glTF with external buffers (its config gives the quadruped template and the axes), and a text
-file called bad.obj. Tests that change things work on copies of that folder and its output.
+file called bad.obj. Tests that change things work on copies of that folder and its output. A second one
+(``skeleton_reference``) has the sample meshes on the user's own skeleton and on template "auto".
 """
 from __future__ import annotations
 
@@ -20,13 +21,22 @@ from autorig.batch import (EXIT_SOME_FAILED, ClusterError, ConfigError, find_mes
                            write_junit_report)
 from autorig.batch_progress import BatchProgress
 from autorig.cli import BATCH_EXTENSIONS, cli
-from autorig.errors import TemplateError
-from autorig.pipeline import RigOptions
+from autorig.errors import InputError, SkeletonError, TemplateError
+from autorig.exchange.gltf import read_glb
+from autorig.exchange.skeleton import read_skeleton
+from autorig.pipeline import RigOptions, SkinOptions
 
 # Explicit axes: automatic orientation would try eight frames per mesh, and these tests are about batching.
 AXES = ["--up", "y", "--front", "z"]
 RIGGED = {"hero.obj": "hero.rigged.glb", "animals/dog.gltf": "animals/dog.rigged.glb",
           "sub/deeper/kid.obj": "sub/deeper/kid.rigged.glb"}
+DATA = Path(__file__).resolve().parents[1] / "data"
+# Two mannequins on the studio skeleton (the mannequin's own joints, in its units), the dog on template auto.
+SKELETON_TOML = 'skeleton = "rigs/studio.json"\n[files."dog.obj"]\ntemplate = "auto"\nup = "y"\nfront = "z"\n'
+TWO_ROOTS = {"joints": [{"name": "a", "parent": None, "position": [0, 1, 0]},
+                        {"name": "b", "parent": "a", "position": [0, 1.5, 0]},
+                        {"name": "c", "parent": None, "position": [0.3, 0.5, 0]},
+                        {"name": "d", "parent": "c", "position": [0.3, 0.2, 0]}]}
 
 
 def run(*args: str):
@@ -66,6 +76,27 @@ def reference(tmp_path_factory):
     out, report, junit = root / "rigged", root / "report.json", root / "report.xml"
     result = run("batch", assets, "-o", out, *AXES, "-j", "2", "--report", report, "--junit", junit)
     return assets, out, result, report, junit
+
+
+def make_skeleton_assets(root: Path) -> Path:
+    (root / "rigs").mkdir(parents=True)
+    shutil.copy(DATA / "mannequin.obj", root / "hero.obj")
+    extra = samples.mannequin(resolution=56)
+    write_obj(root / "crowd" / "extra.obj", extra.vertices, extra.faces)
+    shutil.copy(DATA / "dog.obj", root / "dog.obj")
+    shutil.copy(DATA / "mannequin.joints.json", root / "rigs" / "studio.json")
+    (root / "autorig.toml").write_text(SKELETON_TOML)
+    return root
+
+
+@pytest.fixture(scope="module")
+def skeleton_reference(tmp_path_factory):
+    """(input folder, output folder, CLI result, report) of a batch of skeleton and template "auto" assets."""
+    root = tmp_path_factory.mktemp("skeleton")
+    assets = make_skeleton_assets(root / "assets")
+    out, report = root / "rigged", root / "report.json"
+    result = run("batch", assets, "-o", out, "--voxels", "32", "-j", "2", "--report", report)
+    return assets, out, result, report
 
 
 @pytest.fixture
@@ -188,6 +219,154 @@ def test_cluster_gives_byte_identical_outputs(reference, tmp_path):
     assert outputs(tmp_path / "rigged") == outputs(out)
 
 
+# ------------------------------------------------------------------------------------------ auto and skeletons
+
+def test_config_skeleton_and_template_auto_rig(skeleton_reference):
+    assets, out, result, report = skeleton_reference
+    assert result.exit_code == 0, result.output
+    by_input = {a["input"]: a for a in json.loads(report.read_text())["assets"]}
+    assert {rel: (a["status"], a["template"], a["up"], a["front"]) for rel, a in by_input.items()} == {
+        "crowd/extra.obj": ("ok", "skeleton rigs/studio.json", "", ""),  # up and front do not apply
+        "dog.obj": ("ok", "auto", "y", "z"),
+        "hero.obj": ("ok", "skeleton rigs/studio.json", "", "")}
+    studio = read_skeleton(assets / "rigs" / "studio.json")
+    for name in ("hero", "crowd/extra"):
+        rig = read_glb(out / f"{name}.rigged.glb")
+        assert rig.names == studio.names
+        np.testing.assert_allclose(rig.joints, studio.positions, atol=1e-5)  # scale 1: the mesh's units
+        np.testing.assert_allclose(rig.weights.sum(axis=1), 1, atol=1e-5)
+        assert (rig.weights.max(axis=0) > 0.5).sum() >= 15  # the joints own their parts, not one joint all
+    hero_vertices = sum(line.startswith("v ") for line in (assets / "hero.obj").read_text().splitlines())
+    assert len(read_glb(out / "hero.rigged.glb").vertices) == hero_vertices
+    dog = read_glb(out / "dog.rigged.glb")
+    assert dog.names[0] == "root" and any(n.startswith("chain") for n in dog.names)
+    np.testing.assert_allclose(dog.weights.sum(axis=1), 1, atol=1e-5)
+
+
+def test_skeleton_and_auto_assets_resume_on_their_own_options(skeleton_reference, tmp_path):
+    assets, out = tmp_path / "assets", tmp_path / "rigged"
+    shutil.copytree(skeleton_reference[0], assets)
+    shutil.copytree(skeleton_reference[1], out)
+    report = tmp_path / "report.json"
+
+    def again(*args: str, voxels: int = 32) -> dict[str, str]:
+        result = run("batch", assets, "-o", out, "-j", "1", "--voxels", voxels, "--report", report, *args)
+        assert result.exit_code == 0, result.output
+        return {rel: status for rel, (status, _) in statuses(report).items()}
+
+    skeleton_assets = {"crowd/extra.obj", "hero.obj"}
+    assert again() == {"crowd/extra.obj": "skipped", "dog.obj": "skipped", "hero.obj": "skipped"}
+    before = outputs(out)
+    studio = json.loads((assets / "rigs" / "studio.json").read_text())
+    studio["joints"][-1]["position"][1] += 0.01
+    (assets / "rigs" / "studio.json").write_text(json.dumps(studio))
+    assert again() == {"crowd/extra.obj": "ok", "dog.obj": "skipped", "hero.obj": "ok"}
+    changed = outputs(out)
+    assert {k for k in before if changed[k] != before[k]} == {"crowd/extra.rigged.glb", "hero.rigged.glb"}
+    assert again(voxels=40) == {"crowd/extra.obj": "skipped", "dog.obj": "ok", "hero.obj": "skipped"}
+    assert outputs(out)["hero.rigged.glb"] == changed["hero.rigged.glb"]
+    # A JSON skeleton's default scale is 1: saying so changes nothing; auto does, for the skeleton assets only.
+    assert set(again("--skeleton-scale", "1", voxels=40).values()) == {"skipped"}
+    assert {rel for rel, s in again("--skeleton-scale", "auto", voxels=40).items() if s == "ok"} == skeleton_assets
+
+
+def test_template_auto_from_the_command_line(tmp_path):
+    (tmp_path / "in").mkdir()
+    shutil.copy(DATA / "dog.obj", tmp_path / "in" / "dog.obj")
+    report = tmp_path / "report.json"
+    result = run("batch", tmp_path / "in", "-o", tmp_path / "out", "--template", "auto", "--voxels", "24", "-j", "1",
+                 "--report", report)
+    assert result.exit_code == 0, result.output
+    assert [(a["status"], a["template"]) for a in json.loads(report.read_text())["assets"]] == [("ok", "auto")]
+    assert read_glb(tmp_path / "out" / "dog.rigged.glb").names[0] == "root"
+
+
+def test_pinocchio_with_a_multi_root_skeleton_fails_that_asset(tmp_path):
+    (tmp_path / "in").mkdir()
+    shutil.copy(DATA / "mannequin.obj", tmp_path / "in" / "hero.obj")
+    (tmp_path / "two.json").write_text(json.dumps(TWO_ROOTS))
+    result = rig_folder(tmp_path / "in", tmp_path / "out", skeleton=tmp_path / "two.json", fmt="pinocchio", jobs=1)
+    [asset] = result.assets
+    assert (asset.status, asset.error_type) == ("failed", "SkeletonError")
+    assert asset.template == f"skeleton {tmp_path}/two.json" and asset.up == asset.front == ""
+    assert asset.error.startswith("hero.obj: ") and "one root" in asset.error and "\n" not in asset.error
+    assert result.exit_code == 7 and not (tmp_path / "out" / "hero.rigged").exists()
+
+
+def test_cluster_rigs_skeleton_and_auto_assets(skeleton_reference, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    assets, out = skeleton_reference[:2]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        result = rig_folder(assets, tmp_path / "rigged", options=RigOptions(voxels=32),
+                            scheduler=cluster.scheduler_address)
+    assert {a.input: a.status for a in result.assets} == {"crowd/extra.obj": "ok", "dog.obj": "ok", "hero.obj": "ok"}
+    assert outputs(tmp_path / "rigged") == outputs(out)  # the parsed skeleton travelled; no shared files
+
+
+def test_template_and_skeleton_replace_each_other_in_the_cascade(tmp_path):
+    for rel in ["a.obj", "hero.obj", "dogs/rex.obj", "dogs/big/bruno.obj", "dogs/big/max.obj"]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("v 0 0 0\n")
+    (tmp_path / "rigs").mkdir()
+    shutil.copy(DATA / "mannequin.joints.json", tmp_path / "rigs" / "studio.json")
+    shutil.copy(DATA / "dog.joints.json", tmp_path / "rigs" / "hero.json")
+    (tmp_path / "dogs" / "big" / "autorig.json").write_text(
+        json.dumps({"files": {"bruno.obj": {"skeleton": "../../rigs/studio.json"}}}))
+    (tmp_path / "dogs" / "autorig.toml").write_text('template = "quadruped"\n')
+
+    def plan(template="biped", options=RigOptions(up="y", front="z"), **kwargs):
+        plans = batch._plan(tmp_path, tmp_path / "out", template, options, "glb", ["obj"], **kwargs)
+        return {p.rel: p for p in plans}
+
+    # The command line's skeleton, until a config says template; a deeper skeleton again replaces that.
+    got = plan(skeleton=tmp_path / "rigs" / "studio.json")
+    assert {rel: (p.label, p.up, p.front) for rel, p in got.items()} == {
+        "a.obj": ("skeleton rigs/studio.json", "", ""), "hero.obj": ("skeleton rigs/studio.json", "", ""),
+        "dogs/rex.obj": ("quadruped", "y", "z"), "dogs/big/bruno.obj": ("skeleton rigs/studio.json", "", ""),
+        "dogs/big/max.obj": ("quadruped", "y", "z")}
+    assert got["a.obj"].template is None and got["a.obj"].skeleton is got["dogs/big/bruno.obj"].skeleton  # read once
+    assert isinstance(got["a.obj"].options, SkinOptions) and got["a.obj"].options.scale == 1.0
+
+    (tmp_path / "autorig.toml").write_text('skeleton = "rigs/studio.json"\n'
+                                           '[files."hero.obj"]\nskeleton = "rigs/hero.json"\n'
+                                           '[files."a.obj"]\ntemplate = "auto"\n')
+    got = plan()
+    assert {rel: p.label for rel, p in got.items()} == {
+        "a.obj": "auto", "hero.obj": "skeleton rigs/hero.json", "dogs/rex.obj": "quadruped",
+        "dogs/big/bruno.obj": "skeleton rigs/studio.json", "dogs/big/max.obj": "quadruped"}
+    assert got["hero.obj"].skeleton.names == read_skeleton(DATA / "dog.joints.json").names
+    # Keys: a skeleton asset's ignore the axes and template auto's settings; auto's ignore the scale.
+    other = plan(options=RigOptions(up="x", front="z", voxels=64), skin_options=SkinOptions(scale="auto"))
+    changed = {rel for rel in got if other[rel].key != got[rel].key}
+    assert changed == set(got) and other["a.obj"].options.voxels == 64
+    axes = plan(options=RigOptions(up="x", front="z"))
+    assert {rel for rel in got if axes[rel].key != got[rel].key} == {"a.obj", "dogs/rex.obj", "dogs/big/max.obj"}
+    voxels = plan(options=RigOptions(up="y", front="z", voxels=64))
+    assert {rel for rel in got if voxels[rel].key != got[rel].key} == {"a.obj"}
+    scale = plan(skin_options=SkinOptions(scale=2))
+    assert {rel for rel in got if scale[rel].key != got[rel].key} == {"hero.obj", "dogs/big/bruno.obj"}
+    with pytest.raises(InputError, match="positive number or auto"):
+        rig_folder(tmp_path, tmp_path / "out", skin_options=SkinOptions(scale=-1))
+
+
+def test_a_broken_skeleton_file_stops_the_batch_before_rigging(tmp_path):
+    (tmp_path / "in" / "sub").mkdir(parents=True)
+    shutil.copy(DATA / "mannequin.obj", tmp_path / "in" / "a.obj")
+    shutil.copy(DATA / "mannequin.obj", tmp_path / "in" / "sub" / "b.obj")
+    (tmp_path / "in" / "broken.json").write_text('{"joints": [{"name": "hips", "parent": "pelvis", '
+                                                 '"position": [0, 1, 0]}]}')
+    (tmp_path / "in" / "sub" / "autorig.toml").write_text('[files."b.obj"]\nskeleton = "../broken.json"\n')
+    result = run("batch", tmp_path / "in", "-o", tmp_path / "out", "-j", "1")
+    assert result.exit_code == 3, result.output
+    assert len(result.stderr.splitlines()) == 1
+    assert "sub/autorig.toml" in result.stderr and "broken.json" in result.stderr
+    assert "unknown parent 'pelvis'" in result.stderr
+    assert not list((tmp_path / "out").rglob("*.glb")) and not (tmp_path / "out" / batch.MANIFEST_NAME).exists()
+    with pytest.raises(SkeletonError, match="unknown parent"):
+        rig_folder(tmp_path / "in" / "sub", tmp_path / "out", skeleton=tmp_path / "in" / "broken.json")
+
+
 # ------------------------------------------------------------------------------------------ without rigging
 
 def test_finds_meshes_recursively_in_a_stable_order(tmp_path):
@@ -222,6 +401,11 @@ def test_nearest_config_wins_key_by_key(tmp_path):
     ('up = "y"\nfront = "-y"\n', "parallel", 2),
     ('template = \n', "autorig.toml", 2),
     ('template = "octopus"\n', "unknown template 'octopus'", 3),
+    ('template = "biped"\nskeleton = "rig.json"\n', "template and skeleton are alternatives", 2),
+    ('[files."a.obj"]\ntemplate = "auto"\nskeleton = "rig.json"\n', "files.'a.obj': template and skeleton", 2),
+    ('skeleton = 3\n', "skeleton must be a string", 2),
+    ('skeleton = "missing.json"\n', "missing.json: cannot read", 3),
+    ('skeleton = "rig.fbx"\n', "unknown skeleton format '.fbx'", 3),
 ])
 def test_config_errors_stop_the_batch_before_rigging(tmp_path, config, error, code):
     (tmp_path / "in").mkdir()
@@ -272,6 +456,10 @@ def test_same_stem_keeps_the_extension_and_key_covers_gltf_buffers(tmp_path):
     (["-o", "{out}", "-j", "2", "--scheduler", "tcp://127.0.0.1:1"], 2, "does not apply"),
     (["-o", "{out}", "--scheduler", "carrier-pigeon://x"], 1, "bad Dask scheduler address"),
     (["-o", "{out}", "--template", "octopus"], 3, "unknown template"),
+    (["-o", "{out}", "--skeleton", "{tmp}/rig.json", "--template", "biped"], 2, "--template and --skeleton"),
+    (["-o", "{out}", "--skeleton", "{tmp}/rig.json", "-t", "auto"], 2, "alternatives"),
+    (["-o", "{out}", "--skeleton-scale", "0"], 2, "not a positive number or auto"),
+    (["-o", "{out}", "--skeleton", "{tmp}/rig.bvh"], 3, "rig.bvh: cannot read"),
 ])
 def test_usage_errors(tmp_path, args, code, message):
     (tmp_path / "in").mkdir()

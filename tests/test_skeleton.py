@@ -303,6 +303,14 @@ def test_skeleton_usage_errors_exit_2(tmp_path, args):
     assert not (tmp_path / "out.glb").exists()
 
 
+
+def test_pinocchio_output_needs_one_root_and_a_bone(tmp_path):
+    lone = tmp_path / "lone.json"
+    lone.write_text(json.dumps({"joints": [{"name": "root", "parent": None, "position": [0, 1, 0]}]}))
+    run = run_cli(MANNEQUIN, "--skeleton", lone, "-f", "pinocchio", "-o", tmp_path / "rig")
+    assert run.returncode == 2 and "at least one bone" in run.stderr and "Traceback" not in run.stderr, run.stderr
+    assert not (tmp_path / "rig").exists()
+
 # --- rules -----------------------------------------------------------------------------------------------------
 
 def test_loose_parts_and_cold_bones_are_all_weighted():
