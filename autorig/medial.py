@@ -43,14 +43,18 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     min_angle_degrees: how far apart the two nearest-point directions must turn for an edge to count as
     crossing the medial surface; small angles come from surface noise (bumps make tiny medial branches).
     """
-    edge_len = 2 ** (field.max_level - field.leaf_level)
-    a_idx = (field.leaf_index[:, None, :] + CORNERS[EDGES[:, 0]][None] * edge_len[:, None, None]).reshape(-1, 3)
-    b_idx = (field.leaf_index[:, None, :] + CORNERS[EDGES[:, 1]][None] * edge_len[:, None, None]).reshape(-1, 3)
+    # Only edges with both ends inside can cross the medial surface: leaves with fewer than two inside
+    # corners (about half of them, outside the mesh) have none.
+    useful = (field.leaf_values > 0).sum(axis=1) >= 2
+    leaf_level, leaf_index = field.leaf_level[useful], field.leaf_index[useful]
+    edge_len = 2 ** (field.max_level - leaf_level)
+    a_idx = (leaf_index[:, None, :] + CORNERS[EDGES[:, 0]][None] * edge_len[:, None, None]).reshape(-1, 3)
+    b_idx = (leaf_index[:, None, :] + CORNERS[EDGES[:, 1]][None] * edge_len[:, None, None]).reshape(-1, 3)
     # Neighbouring leaves of one size share edges: count each once. An edge is its first corner, its axis
     # and its length, packed into one integer (corner coordinates are at most 2**max_level).
     side = 2 ** field.max_level + 1
     axis = np.argmax(b_idx - a_idx, axis=1)
-    level = np.repeat(field.leaf_level, len(EDGES))
+    level = np.repeat(leaf_level, len(EDGES))
     edge_key = (((a_idx[:, 0] * side + a_idx[:, 1]) * side + a_idx[:, 2]) * 3 + axis) * (field.max_level + 1) + level
     _, first = np.unique(edge_key, return_index=True)
     ka, kb = _key(a_idx[first]), _key(b_idx[first])
