@@ -227,14 +227,16 @@ def shared_length(graph: SphereGraph, source: int, used: np.ndarray) -> np.ndarr
     Sums along the shortest-path tree by pointer doubling: after k rounds every sphere holds the sum over
     the last 2^k edges of its path, so log2(S) vectorised rounds cover the deepest path.
     """
-    n = len(graph.radii)
+    own = np.zeros(len(graph.radii))
+    far_ends = np.flatnonzero(used)
+    far_ends = far_ends[far_ends != source]
+    if len(far_ends) == 0:
+        return own
     parent = graph.predecessors[source].copy()
     parent[parent < 0] = source                      # the source, and spheres it cannot reach
     parent[source] = source
-    own = np.where(used, np.linalg.norm(graph.centers - graph.centers[parent], axis=1), 0.0)
-    own[source] = 0.0
-    if not own.any():
-        return own
+    # Only the few used spheres carry a length (the search calls this for every state it expands).
+    own[far_ends] = np.linalg.norm(graph.centers[far_ends] - graph.centers[parent[far_ends]], axis=1)
     total, jump = own, parent
     # Paths are far shallower than the log2(S) doublings of the worst case: stop once every pointer has
     # reached the source (whose sum is 0).
