@@ -42,7 +42,9 @@ class SurfaceQuery:
         """[N] generalized winding number of each point."""
         if len(points) == 0:
             return np.zeros(0)
-        return self._winding_tree.winding_number(np.ascontiguousarray(points, dtype=np.float64))
+        # accuracy_scale 1.5 instead of libigl's 2: half the time, and within 0.015 of the exact winding
+        # number near the surface of the shared characters (the sign only needs the side of 0.5).
+        return self._winding_tree.winding_number(np.ascontiguousarray(points, dtype=np.float64), 1.5)
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """[N] unsigned distance of each point to the surface (no winding numbers: cheaper than ``closest``)."""
