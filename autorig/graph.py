@@ -6,7 +6,7 @@ spheres are what the embedding measures bones with.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,13 +18,16 @@ from .medial import Spheres
 class SphereGraph:
     """centers [S, 3], radii [S] of the spheres; edges [E, 2] sphere index pairs (i < j) with lengths [E];
     distances [S, S] shortest-path length between every pair (inf between components);
-    predecessors [S, S] predecessor of node j on the shortest path from i (-9999 where none)."""
+    predecessors [S, S] predecessor of node j on the shortest path from i (-9999 where none);
+    shared: what depends only on the graph's connections (adjacency lists, the limb-end merge order), worked
+    out once and shared with ``moved`` copies: orientation detection asks for it in eight frames."""
     centers: np.ndarray
     radii: np.ndarray
     edges: np.ndarray
     lengths: np.ndarray
     distances: np.ndarray
     predecessors: np.ndarray
+    shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def path(self, start: int, end: int) -> list[int]:
         """Node indices of the shortest path from ``start`` to ``end``, both included."""
@@ -41,15 +44,17 @@ class SphereGraph:
         followed by a uniform ``scale``, which radii and lengths follow."""
         return SphereGraph(centers=centers, radii=self.radii * scale, edges=self.edges,
                            lengths=self.lengths * scale, distances=self.distances * scale,
-                           predecessors=self.predecessors)
+                           predecessors=self.predecessors, shared=self.shared)
 
     def neighbours(self) -> list[np.ndarray]:
         """Adjacency lists: neighbours()[i] = indices of the spheres joined to sphere i."""
-        out = [[] for _ in range(len(self.radii))]
-        for i, j in self.edges:
-            out[i].append(j)
-            out[j].append(i)
-        return [np.array(sorted(n), dtype=np.int64) for n in out]
+        if "neighbours" not in self.shared:
+            out = [[] for _ in range(len(self.radii))]
+            for i, j in self.edges:
+                out[i].append(j)
+                out[j].append(i)
+            self.shared["neighbours"] = [np.array(sorted(n), dtype=np.int64) for n in out]
+        return self.shared["neighbours"]
 
 
 def segments_inside(field: DistanceField, starts: np.ndarray, ends: np.ndarray, samples: int = 8) -> np.ndarray:

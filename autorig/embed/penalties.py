@@ -58,8 +58,11 @@ class EmbeddingProblem:
     graph       the sphere graph
     reduced     the template's reduced skeleton (K joints)
     candidates  [K] arrays of the spheres each reduced joint may occupy
-    bone_cost   [K] arrays [S, S]: cost of reduced bone j with its parent on sphere u and j on sphere v
-                (length + direction + feet); row/column outside the candidates is inf; None for the root
+    bone_cost   [K] arrays [P_k, C_k]: cost of reduced bone k (length + direction + feet) with its parent
+                on sphere candidates[parent][i] and k on sphere candidates[k][j]; None for the root. Only
+                candidate pairs can be chosen, so nothing else is stored (the orientation search builds
+                this problem in eight frames)
+    bone_row    [K] arrays [S]: the row of bone_cost[k] for the parent on each sphere, -1 off its candidates
     root_cost   [S] cost of the root on each sphere (inf off its candidates)
     mirror      [K] reduced index of each joint's mirror image, -1 if none
     vectors     [K, 3] template vector of each reduced bone (parent to joint), zero for the root
@@ -70,6 +73,7 @@ class EmbeddingProblem:
     reduced: ReducedSkeleton
     candidates: list[np.ndarray]
     bone_cost: list
+    bone_row: list
     root_cost: np.ndarray
     mirror: np.ndarray
     vectors: np.ndarray
@@ -93,11 +97,23 @@ def prominences(graph: SphereGraph) -> np.ndarray:
     """
     from_centre = graph.distances[int(np.argmin(graph.distances.max(axis=1)))]
     from_centre = np.where(np.isfinite(from_centre), from_centre, -1.0)
-    neighbours = graph.neighbours()
+    if "limb_merges" not in graph.shared:
+        graph.shared["limb_merges"] = _merges(from_centre, graph.neighbours())
+    dying, merged_at, top = graph.shared["limb_merges"]
+    prominence = np.zeros(len(from_centre))
+    prominence[dying] = from_centre[dying] - from_centre[merged_at]
+    prominence[top] = np.inf
+    return prominence
+
+
+def _merges(from_centre: np.ndarray, neighbours: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, int]:
+    """The union-find sweep of ``prominences``: (dying [M] local maxima, merged_at [M] the sphere where each
+    meets a higher one, top the highest). It depends only on the order of ``from_centre``, which the uniform
+    scale of another frame keeps, so it is found once per graph."""
     order = np.argsort(-from_centre, kind="stable")
     root = np.full(len(order), -1)
     peak = np.zeros(len(order), dtype=np.int64)      # highest node of each component, kept at its root
-    prominence = np.zeros(len(order))
+    dying, merged_at = [], []
 
     def find(i):
         while root[i] != i:
@@ -115,11 +131,10 @@ def prominences(graph: SphereGraph) -> np.ndarray:
                 continue
             # The component whose peak is lower dies here.
             low, high = (a, b) if from_centre[peak[a]] < from_centre[peak[b]] else (b, a)
-            prominence[peak[low]] = from_centre[peak[low]] - from_centre[v]
+            dying.append(peak[low])
+            merged_at.append(v)
             root[low] = high
-    top = peak[find(order[0])]
-    prominence[top] = np.inf
-    return prominence
+    return np.array(dying, dtype=np.int64), np.array(merged_at, dtype=np.int64), int(peak[find(order[0])])
 
 
 def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
@@ -159,13 +174,13 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
 
     tpos = template.positions[reduced.joints]
     vectors = np.zeros((K, 3))
-    bone_cost = [None] * K
+    bone_cost, bone_row = [None] * K, [None] * K
     C, D = graph.centers, graph.distances
     for k in range(1, K):
         p = reduced.parents[k]
         vectors[k] = tpos[k] - tpos[p]
-        # Only the block of the parent's candidates by this joint's is finite; a limb's end has a few dozen
-        # candidates, so most bones cost |S| x ends, not |S|^2 (the orientation search builds this 10 times).
+        # Only the parent's candidates by this joint's: a limb's end has a few dozen candidates, so most
+        # bones cost |S| x ends, not |S|^2.
         rows, cols = candidates[p], candidates[k]
         path = D[np.ix_(rows, cols)]
         offset = C[cols][None, :, :] - C[rows][:, None, :]
@@ -179,9 +194,9 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
         if reduced.joints[k] in fat:
             cost += thinness[cols][None, :]
         cost[~np.isfinite(path)] = np.inf
-        full = np.full((S, S), np.inf)
-        full[np.ix_(rows, cols)] = cost
-        bone_cost[k] = full
+        bone_cost[k] = cost
+        bone_row[k] = np.full(S, -1, dtype=np.int64)
+        bone_row[k][rows] = np.arange(len(rows))
     root_cost = np.full(S, np.inf)
     root_cost[candidates[0]] = thinness[candidates[0]] if reduced.joints[0] in fat else 0.0
 
@@ -195,8 +210,8 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     first_bone = np.array([0.0] + [float(np.linalg.norm(template.positions[c[1]] - template.positions[c[0]]))
                                    for c in reduced.chains[1:]])
     shared_ok = np.maximum(first_bone, SHARED_FRACTION * reduced.lengths)
-    return EmbeddingProblem(graph, reduced, candidates, bone_cost, root_cost, mirror, vectors, is_foot,
-                            shared_ok)
+    return EmbeddingProblem(graph, reduced, candidates, bone_cost, bone_row, root_cost, mirror, vectors,
+                            is_foot, shared_ok)
 
 
 def symmetry_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, spheres: np.ndarray,

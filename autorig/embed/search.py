@@ -42,13 +42,19 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
     parents = problem.reduced.parents
     children = [[c for c in range(K) if parents[c] == k] for k in range(K)]
     # Cheapest cost of bone k given its parent's sphere ([S]), and with nothing placed (scalar).
-    best_given_parent = [None] + [np.min(problem.bone_cost[k], axis=1) for k in range(1, K)]
+    S = len(problem.graph.radii)
+    best_given_parent = [None]
+    for k in range(1, K):
+        best = np.full(S, np.inf)
+        rows = problem.bone_row[k] >= 0
+        if problem.bone_cost[k].size:
+            best[rows] = np.min(problem.bone_cost[k], axis=1)[problem.bone_row[k][rows]]
+        best_given_parent.append(best)
     best_anywhere = np.array([0.0] + [float(np.min(best_given_parent[k])) for k in range(1, K)])
     if not np.all(np.isfinite(best_anywhere)) or not np.isfinite(problem.root_cost).any():
         raise RigFailedError("the template does not fit this shape: some joint has no place to go "
                              "(too few limbs or extremities in the mesh)")
 
-    S = len(problem.graph.radii)
     # Spheres on the paths of each expanded state's bones, built from its parent state's.
     used_by_state: dict[tuple[int, ...], np.ndarray] = {(): np.zeros(S, dtype=bool)}
 
@@ -70,7 +76,8 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
             used[problem.graph.path(placed[parents[k - 1]], placed[k - 1])] = True
         used_by_state[placed] = used
         candidates = problem.candidates[k]
-        cost = problem.bone_cost[k][u, candidates].copy()
+        row = problem.bone_row[k][u]
+        cost = problem.bone_cost[k][row].copy() if row >= 0 else np.full(len(candidates), np.inf)
         taken = np.zeros(S, dtype=bool)
         taken[list(placed)] = True
         cost[taken[candidates]] = np.inf
