@@ -179,7 +179,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     if verbose and quiet:
         raise click.UsageError("--verbose and --quiet cannot be used together")
     start = time.perf_counter()
-    from .exchange import default_output_path, write_rig
+    from .exchange import default_output_path
     from .mesh import check_mesh_path, frame_rotation
     from .template import load_template
 
@@ -207,22 +207,9 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         if strict and confidence < STRICT_THRESHOLD:
             raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
                                      f"({_weakest(result.info['confidence_parts'])}); nothing written")
-        write_start = time.perf_counter()
-        write_rig(result, out_path, fmt, input_path=mesh_path)
-        written = time.perf_counter()
-        if preview:
-            from .preview import render_preview
-            preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
-            render_preview(result, preview_path, title=_preview_title(mesh_path.name, result))
+        preview_path = _write(result, out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
-    if verbose:
-        timings = {**result.timings, "write": written - write_start}
-        if preview:
-            timings["preview"] = end - written
-        width = max(map(len, timings))
-        for stage, seconds in timings.items():
-            click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
     if not quiet:
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
@@ -245,7 +232,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
                                    f"given, not embedded)")
     scale = _skeleton_scale(skeleton_scale)
 
-    from .exchange import default_output_path, write_rig
+    from .exchange import default_output_path
     from .exchange.skeleton import read_skeleton
     from .mesh import check_mesh_path
 
@@ -268,22 +255,9 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     from .pipeline import SkinOptions, skin
     with quiet_libraries(shown=verbose):
         result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale))
-        write_start = time.perf_counter()
-        write_rig(result, out_path, fmt, input_path=mesh_path)
-        written = time.perf_counter()
-        if preview:
-            from .preview import render_preview
-            preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
-            render_preview(result, preview_path, title=_preview_title(mesh_path.name, result))
+        preview_path = _write(result, out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
-    if verbose:
-        timings = {**result.timings, "write": written - write_start}
-        if preview:
-            timings["preview"] = end - written
-        width = max(map(len, timings))
-        for stage, seconds in timings.items():
-            click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
     if not quiet:
         info = result.info
         cold = sum(map(len, info["cold_bones"].values()))
@@ -519,6 +493,28 @@ def _skeleton_scale(text: str | None) -> float | str | None:
     if scale is None or (scale != "auto" and not (0 < scale < float("inf"))):
         raise click.BadParameter(f"{text!r} is not a positive number or auto", param_hint="'--skeleton-scale'")
     return scale
+
+
+def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, verbose: bool) -> Path | None:
+    """Write the rig (and with ``preview`` its picture beside it, whose path is returned); with ``verbose``
+    print every stage's time, these two included, on stderr."""
+    from .exchange import write_rig
+
+    start = time.perf_counter()
+    write_rig(result, out_path, fmt, input_path=mesh_path)
+    timings = {**result.timings, "write": time.perf_counter() - start}
+    preview_path = None
+    if preview:
+        from .preview import render_preview
+        start = time.perf_counter()
+        preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
+        render_preview(result, preview_path, title=_preview_title(mesh_path.name, result))
+        timings["preview"] = time.perf_counter() - start
+    if verbose:
+        width = max(map(len, timings))
+        for stage, seconds in timings.items():
+            click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
+    return preview_path
 
 
 def _weakest(parts: dict[str, float]) -> str:

@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +16,8 @@ from autorig.exchange.gltf import read_glb, top4_influences
 from autorig.exchange.json_format import read_json
 from autorig.exchange.pinocchio import bone_weights
 from autorig.result import Rig
+from gltf_validator import validate
 
-VALIDATOR = Path(__file__).with_name("validate_gltf.js")
 
 
 def make_rig(joint_count: int = 5, seed: int = 0) -> Rig:
@@ -60,18 +58,6 @@ def dense_top4(weights: np.ndarray) -> np.ndarray:
         keep = sorted(range(len(row)), key=lambda j: (-row[j], j))[:4]
         out[i, keep] = row[keep] / row[keep].sum()
     return out
-
-
-def validate(path: Path) -> dict:
-    """The validator's summary for ``path``; skips the test when node or gltf-validator is missing."""
-    node = shutil.which("node")
-    if node is None:
-        pytest.skip("node is not installed")
-    run = subprocess.run([node, str(VALIDATOR), str(path)], capture_output=True, text=True, timeout=120)
-    if run.returncode == 2:
-        pytest.skip("gltf-validator is not installed (npm install --prefix .ci/node gltf-validator)")
-    assert run.returncode == 0, run.stderr
-    return json.loads(run.stdout)
 
 
 def leftovers(directory: Path) -> list[str]:

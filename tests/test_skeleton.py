@@ -21,31 +21,17 @@ from autorig.errors import SkeletonError
 from autorig.exchange.gltf import read_glb
 from autorig.exchange.skeleton import read_skeleton
 from autorig.mesh import load_mesh
+from gltf_validator import validate
 
 ROOT = Path(__file__).resolve().parents[1]
 MANNEQUIN = ROOT / "data" / "mannequin.obj"
 MANNEQUIN_JOINTS = ROOT / "data" / "mannequin.joints.json"
 SHARED = ROOT.parent / "shared"
 RIGGED = SHARED / "data" / "rigged"
-VALIDATOR = Path(__file__).with_name("validate_gltf.js")
 
 
 def run_cli(*args) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "autorig.cli", *map(str, args)], capture_output=True, text=True)
-
-
-def validate(path: Path) -> dict:
-    """The glTF validator's summary; skips when node or gltf-validator is missing (see test_exchange)."""
-    import shutil
-
-    node = shutil.which("node")
-    if node is None:
-        pytest.skip("node is not installed")
-    run = subprocess.run([node, str(VALIDATOR), str(path)], capture_output=True, text=True, timeout=120)
-    if run.returncode == 2:
-        pytest.skip("gltf-validator is not installed (npm install --prefix .ci/node gltf-validator)")
-    assert run.returncode == 0, run.stderr
-    return json.loads(run.stdout)
 
 
 def check_weights(weights: np.ndarray, vertex_count: int) -> None:

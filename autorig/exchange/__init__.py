@@ -191,6 +191,21 @@ def write_folder_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> N
         shutil.rmtree(old, ignore_errors=True)
 
 
+def parents_first(parents: np.ndarray) -> list[int]:
+    """An order of the joints (parents [J], -1 for a root) in which every parent precedes its children, as
+    close to 0..J-1 as can be."""
+    order: list[int] = []
+    placed = np.zeros(len(parents), dtype=bool)
+    for j in range(len(parents)):
+        chain = []
+        while j >= 0 and not placed[j]:
+            chain.append(j)
+            placed[j] = True
+            j = parents[j]
+        order.extend(reversed(chain))
+    return order
+
+
 def decimal_strings(values: np.ndarray, decimals: int) -> np.ndarray:
     """``values`` rounded to ``decimals`` decimal places, as text: an object array of the same shape.
 

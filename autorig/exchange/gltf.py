@@ -35,7 +35,7 @@ from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, M
 from .. import __version__
 from ..errors import InputError
 from ..result import Rig
-from . import check_rig, write_file_atomic
+from . import check_rig, parents_first, write_file_atomic
 
 __all__ = ["write_glb", "write_gltf", "glb_bytes", "gltf_bytes", "read_glb", "top4_influences",
            "vertex_normals"]
@@ -261,7 +261,7 @@ def _read(path: Path, data: bytes) -> Rig:
         while up >= 0 and up not in as_joint:
             up = node_parent[up]
         parents[j] = as_joint.get(up, -1)
-    order = _parents_first(parents)
+    order = parents_first(parents)
     new_index = np.empty(J, dtype=np.int64)
     new_index[order] = np.arange(J)
     parents = np.array([new_index[parents[j]] if parents[j] >= 0 else -1 for j in order], dtype=np.int64)
@@ -394,17 +394,3 @@ def _gather_meshes(doc: GLTF2, buffers: list[bytes], mesh_nodes: list[Node], J: 
     if not vertices:
         raise ValueError("the skinned mesh has no triangles")
     return (np.concatenate(vertices), np.concatenate(faces).astype(np.int64), np.concatenate(weights))
-
-
-def _parents_first(parents: np.ndarray) -> list[int]:
-    """An order of the joints in which every parent precedes its children, as close to 0..J-1 as can be."""
-    order: list[int] = []
-    placed = np.zeros(len(parents), dtype=bool)
-    for j in range(len(parents)):
-        chain = []
-        while j >= 0 and not placed[j]:
-            chain.append(j)
-            placed[j] = True
-            j = parents[j]
-        order.extend(reversed(chain))
-    return order

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import InputError, SkeletonError
 from ..result import JointNodes
+from . import parents_first
 
 __all__ = ["Skeleton", "read_skeleton", "skeleton_from_joints", "SKELETON_FORMATS"]
 
@@ -103,26 +104,12 @@ def skeleton_from_joints(names, parents, positions, *, source: str = "skeleton",
             up, steps = parents[up], steps + 1
             if steps > J:
                 raise bad(f"joint {names[j]!r} is its own ancestor (a parent cycle)")
-    order = _parents_first(parents)
+    order = parents_first(parents)
     new_index = np.empty(J, dtype=np.int64)
     new_index[order] = np.arange(J)
     ordered_parents = np.array([new_index[parents[j]] if parents[j] >= 0 else -1 for j in order], dtype=np.int64)
     return Skeleton(names=[names[j] for j in order], parents=ordered_parents, positions=positions[order],
                     tips=tips[order], kind=kind, joint_nodes=joint_nodes)
-
-
-def _parents_first(parents: np.ndarray) -> list[int]:
-    """An order of the joints in which every parent precedes its children, as close to 0..J-1 as can be."""
-    order: list[int] = []
-    placed = np.zeros(len(parents), dtype=bool)
-    for j in range(len(parents)):
-        chain = []
-        while j >= 0 and not placed[j]:
-            chain.append(j)
-            placed[j] = True
-            j = parents[j]
-        order.extend(reversed(chain))
-    return order
 
 
 # ------------------------------------------------------------------------------------------------------- JSON
