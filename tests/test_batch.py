@@ -207,6 +207,25 @@ def test_force_rigs_everything_again_with_identical_outputs(copy, reference, tmp
     assert outputs(out) == outputs(reference[1])  # -j 1 gives what -j 2 gave
 
 
+def test_slowest_assets_start_first_by_their_last_time(copy):
+    assets, out = copy
+    manifest_path = out / batch.MANIFEST_NAME
+    manifest = json.loads(manifest_path.read_text())
+    timed = manifest["assets"]
+    assert all(entry["seconds"] >= 0 for entry in timed.values())   # the earlier run kept every asset's time
+    # Pretend the smallest mesh was the slowest and the biggest nearly the quickest: one worker takes them in
+    # that order. (The broken asset fails at once, so it goes last: outcomes that arrive together are handed
+    # on in path order.)
+    order = ["sub/deeper/kid.obj", "animals/dog.gltf", "hero.obj", "sub/bad.obj"]
+    for rank, rel in enumerate(order):
+        timed[rel]["seconds"] = 10.0 - rank
+    manifest_path.write_text(json.dumps(manifest))
+    finished = []
+    rig_folder(assets, out, "biped", RigOptions(up="y", front="z"), jobs=1, force=True,
+               on_result=lambda asset: finished.append(asset.input))
+    assert finished == order
+
+
 def test_cluster_gives_byte_identical_outputs(reference, tmp_path):
     distributed = pytest.importorskip("distributed")
     assets, out = reference[:2]

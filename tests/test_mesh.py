@@ -472,3 +472,22 @@ def test_prepare_random_point_soups(points, random):
     except InputError:
         return
     np.testing.assert_allclose(prepared.from_canonical(prepared.vertices), V, atol=1e-6 * np.ptp(V) + 1e-9)
+
+
+@pytest.mark.parametrize("start", [("y", "z"), ("z", "-x"), ("-x", "y")])
+def test_frame_change_matches_moving_every_vertex(start):
+    """Orientation detection takes each candidate frame from the bounding box's corners alone: it must be the
+    frame that rotating every vertex gives (feet at 0, one unit tall, centred across and front to back)."""
+    from autorig.mesh import frame_rotation
+
+    V, F = shuffled_sphere()
+    V = V * [0.3, 2.0, 0.7] + [5.0, -1.0, 0.25]   # no symmetry between the axes, off the origin
+    prepared = prepare(V, F, *start)
+    for up, front in FRAMES:
+        rotated = V @ frame_rotation(up, front).T      # input vertices in the new frame's axes
+        lo, hi = rotated.min(axis=0), rotated.max(axis=0)
+        expected = (rotated - [(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2]) / (hi[1] - lo[1])
+        change = prepared.frame_change(up, front)
+        # atol: the working copy, whose box is used, is rounded to 1e-9 of the height
+        np.testing.assert_allclose(change.apply(prepared.vertices), expected, atol=1e-9)
+        np.testing.assert_array_equal(prepared.reframed(up, front).vertices, change.apply(prepared.vertices))
