@@ -9,31 +9,40 @@ import json
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
+import pygltflib
 import pytest
+from gltf_validator import validate
 from rig_samples import mannequin_bvh, rigged_mannequin
 from test_pose import MOVES, POSES
 
 from autorig.exchange.animated_gltf import write_animated_glb
 from autorig.exchange.bvh import parse_bvh
-from autorig.exchange.gltf import top4_influences, write_glb
+from autorig.exchange.gltf import read_glb, top4_influences, write_glb
+from autorig.exchange.obj import write_obj
 from autorig.pose import retarget, skin
 
 BLENDER = shutil.which("blender")
 SCRIPT = Path(__file__).with_name("blender_check.py")
+REEXPORT = Path(__file__).with_name("blender_reexport.py")
 
 pytestmark = pytest.mark.skipif(BLENDER is None, reason="blender is not installed (apt-get install blender)")
 
 
-def blender_report(path: Path, bone: str, frame: int | None = None) -> dict:
-    command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(SCRIPT), "--",
-               str(path), bone] + ([str(frame)] if frame is not None else [])
+def run_blender(script: Path, *args) -> subprocess.CompletedProcess:
+    command = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(script), "--",
+               *map(str, args)]
     # Debian's Blender embeds the system Python and finds its home through the first python3 on PATH: put the
     # one beside blender first, not a virtual environment's or pyenv's, which lack Blender's numpy.
     env = dict(os.environ, PATH=os.pathsep.join([os.path.dirname(os.path.realpath(BLENDER)), os.environ["PATH"]]))
-    run = subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
+    return subprocess.run(command, capture_output=True, text=True, timeout=300, env=env)
+
+
+def blender_report(path: Path, bone: str, frame: int | None = None) -> dict:
+    run = run_blender(SCRIPT, path, bone, *([frame] if frame is not None else []))
     lines = [line for line in run.stdout.splitlines() if line.startswith("AUTORIG_BLENDER ")]
     assert run.returncode == 0 and lines, run.stdout[-3000:] + run.stderr[-3000:]
     return json.loads(lines[0].split(" ", 1)[1])
@@ -76,3 +85,38 @@ def test_blender_plays_the_animation_as_autorig_skins_it(rig, tmp_path):
     ours = np.stack([ours[:, 0], -ours[:, 2], ours[:, 1]], axis=1)
     assert np.allclose(report["box_at_frame"], [ours.min(axis=0), ours.max(axis=0)], atol=2e-3)
     assert report["moved_at_frame"] > 0.5
+
+
+def inverse_binds(path: Path) -> dict[str, np.ndarray]:
+    """{joint name: its 4x4 inverse bind matrix (column-major, as stored)} of a .glb's first skin."""
+    doc = pygltflib.GLTF2().load(str(path))
+    skin_ = doc.skins[0]
+    accessor = doc.accessors[skin_.inverseBindMatrices]
+    view = doc.bufferViews[accessor.bufferView]
+    start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
+    matrices = np.frombuffer(doc.binary_blob(), dtype="<f4", count=16 * accessor.count, offset=start)
+    return {doc.nodes[j].name: m for j, m in zip(skin_.joints, matrices.reshape(-1, 16))}
+
+
+def test_a_rig_exported_by_blender_reweights_with_its_own_skeleton(rig, tmp_path):
+    """An artist's rig as Blender writes it (its exporter, not autorig's) as --skeleton: the joints, their
+    names and bind pose are kept, and on the same mesh and skeleton the weights are the template rig's."""
+    ours, theirs, out = tmp_path / "hero.glb", tmp_path / "from_blender.glb", tmp_path / "reweighted.glb"
+    write_glb(rig, ours)
+    run = run_blender(REEXPORT, ours, theirs)
+    assert run.returncode == 0 and theirs.is_file(), run.stdout[-3000:] + run.stderr[-3000:]
+    mesh = tmp_path / "hero.obj"
+    write_obj(rig.vertices, rig.faces, mesh)
+    done = subprocess.run([sys.executable, "-m", "autorig.cli", str(mesh), "--skeleton", str(theirs), "-o",
+                           str(out)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    result = read_glb(out)
+    assert sorted(result.names) == sorted(rig.names)
+    source_binds, kept_binds = inverse_binds(theirs), inverse_binds(out)
+    assert set(kept_binds) == set(source_binds)
+    for name, matrix in source_binds.items():
+        np.testing.assert_array_equal(kept_binds[name], matrix)
+    same = [result.names.index(n) for n in rig.names]
+    agree = np.mean(result.weights[:, same].argmax(axis=1) == rig.weights.argmax(axis=1))
+    assert agree > 0.99
+    assert validate(out)["errors"] == 0
