@@ -179,7 +179,6 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     if verbose and quiet:
         raise click.UsageError("--verbose and --quiet cannot be used together")
     start = time.perf_counter()
-    from .exchange import default_output_path
     from .mesh import check_mesh_path, frame_rotation
     from .template import load_template
 
@@ -189,13 +188,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if "auto" not in (up, front):
         frame_rotation(up, front)  # rejects up parallel to front before any slow work
-    if output:
-        _refuse_input(Path(output), mesh_path)
-    fmt = fmt or _format_of(output)
-    out_path = Path(output) if output else default_output_path(mesh_path, fmt)
-    _check_output(out_path, fmt)
-    if preview:
-        _require_matplotlib("--preview")
+    out_path, fmt = _output_for(mesh_path, output, fmt, preview)
 
     from .confidence import STRICT_THRESHOLD
     from .errors import LowConfidenceError
@@ -232,19 +225,11 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
                                    f"given, not embedded)")
     scale = _skeleton_scale(skeleton_scale)
 
-    from .exchange import default_output_path
     from .exchange.skeleton import read_skeleton
     from .mesh import check_mesh_path
 
     mesh_path = check_mesh_path(mesh)
-    if output:
-        _refuse_input(Path(output), mesh_path)
-        _refuse_input(Path(output), Path(skeleton_file))
-    fmt = fmt or _format_of(output)
-    out_path = Path(output) if output else default_output_path(mesh_path, fmt)
-    _check_output(out_path, fmt)
-    if preview:
-        _require_matplotlib("--preview")
+    out_path, fmt = _output_for(mesh_path, output, fmt, preview, Path(skeleton_file))
     with quiet_libraries(shown=verbose):
         skeleton = read_skeleton(skeleton_file)
     roots = int((skeleton.parents < 0).sum())
@@ -493,6 +478,23 @@ def _skeleton_scale(text: str | None) -> float | str | None:
     if scale is None or (scale != "auto" and not (0 < scale < float("inf"))):
         raise click.BadParameter(f"{text!r} is not a positive number or auto", param_hint="'--skeleton-scale'")
     return scale
+
+
+def _output_for(mesh_path: Path, output: str | None, fmt: str | None, preview: bool, *inputs: Path
+                ) -> tuple[Path, str]:
+    """The output path and format of a rig of ``mesh_path``; refused before any slow work if it would
+    overwrite the mesh or another input, or cannot be written, or if ``preview`` lacks matplotlib."""
+    from .exchange import default_output_path
+
+    if output:
+        for source in (mesh_path, *inputs):
+            _refuse_input(Path(output), source)
+    fmt = fmt or _format_of(output)
+    out_path = Path(output) if output else default_output_path(mesh_path, fmt)
+    _check_output(out_path, fmt)
+    if preview:
+        _require_matplotlib("--preview")
+    return out_path, fmt
 
 
 def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, verbose: bool) -> Path | None:
