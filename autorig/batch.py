@@ -88,7 +88,6 @@ import contextlib
 import fnmatch
 import hashlib
 import json
-import numbers
 import os
 import tempfile
 import time
@@ -248,10 +247,6 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     start = time.perf_counter()
     options = options or RigOptions()
     skin_options = skin_options or SkinOptions()
-    scale = skin_options.scale
-    if scale is not None and scale != "auto" and (isinstance(scale, bool) or not isinstance(scale, numbers.Real)
-                                                  or not 0 < scale < float("inf")):
-        raise InputError(f"skeleton scale must be a positive number or auto, not {scale!r}")
     if fmt not in FORMATS:
         raise OutputError(f"unknown output format {fmt!r}: choose one of {', '.join(FORMATS)}")
     if jobs is not None and jobs < 1:
@@ -751,12 +746,12 @@ def _rig_one(job: _Job) -> dict:
             if job.skeleton is None:
                 result = rig(str(mesh), job.template, job.options)
             else:
-                roots = int((job.skeleton.parents < 0).sum())
-                if job.fmt == "pinocchio" and (roots != 1 or len(job.skeleton.names) < 2):
+                if job.fmt == "pinocchio":
                     # What write_pinocchio would refuse after the work; the command line says so up front.
-                    raise SkeletonError(f"{job.name}: the pinocchio format needs a skeleton with one root joint "
-                                        f"and at least one bone; this one has {roots} roots and "
-                                        f"{len(job.skeleton.names)} joints")
+                    from .exchange.pinocchio import unfit_skeleton
+                    problem = unfit_skeleton(job.skeleton.parents)
+                    if problem:
+                        raise SkeletonError(f"{job.name}: {problem}")
                 result = skin(str(mesh), job.skeleton, job.options)
             timings = dict(result.timings)
             result.timings = {}  # they differ on every run, and the outputs must not

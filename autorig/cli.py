@@ -232,10 +232,11 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     out_path, fmt = _output_for(mesh_path, output, fmt, preview, Path(skeleton_file))
     with quiet_libraries(shown=verbose):
         skeleton = read_skeleton(skeleton_file)
-    roots = int((skeleton.parents < 0).sum())
-    if fmt == "pinocchio" and (roots != 1 or len(skeleton.names) < 2):
-        raise click.UsageError(f"--format pinocchio needs a skeleton with one root joint and at least one bone; "
-                               f"{skeleton_file} has {roots} roots and {len(skeleton.names)} joints")
+    if fmt == "pinocchio":
+        from .exchange.pinocchio import unfit_skeleton
+        problem = unfit_skeleton(skeleton.parents)
+        if problem:
+            raise click.UsageError(f"--format pinocchio: {skeleton_file}: {problem}")
 
     from .pipeline import SkinOptions, skin
     with quiet_libraries(shown=verbose):

@@ -58,7 +58,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .embed import embed
     from .graph import sphere_graph
     from .medial import medial_samples, pack_spheres
-    from .mesh import check_mesh, load_mesh, prepare
+    from .mesh import prepare
     from .orient import detect_orientation, reorient, working_axes
     from .refine import place_on_paths, refine
     from .template import AUTO, Template, load_template
@@ -68,8 +68,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        name = Path(mesh).name if isinstance(mesh, (str, Path)) else "mesh"
-        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, name)
+        vertices, faces, name = _load(mesh)
         template = template if isinstance(template, Template) or template == AUTO else load_template(template)
     if template == AUTO:
         return _rig_without_template(vertices, faces, name, options, stage, timings)
@@ -108,8 +107,18 @@ class SkinOptions:
     """scale: how the skeleton file's positions become the mesh's: a number multiplies them (the mesh's units
     per file unit), "auto" scales and moves the skeleton to fit the mesh's bounding box (see
     ``autorig.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
-    mesh's) and 1 for JSON and glTF skeletons (taken as they are, in the mesh's coordinates)."""
+    mesh's) and 1 for JSON and glTF skeletons (taken as they are, in the mesh's coordinates). Anything else
+    (zero, negative, not a number) is an ``InputError``."""
     scale: float | str | None = None
+
+    def __post_init__(self):
+        import numbers
+
+        from .errors import InputError
+        scale = self.scale
+        if scale is not None and scale != "auto" and (isinstance(scale, bool) or not isinstance(scale, numbers.Real)
+                                                      or not 0 < scale < float("inf")):
+            raise InputError(f"skeleton scale must be a positive number or auto, not {scale!r}")
 
 
 def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
@@ -125,15 +134,14 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     from .attach import bone_heat
     from .bones import fit_to_mesh, plan_heat
     from .exchange.skeleton import Skeleton, read_skeleton
-    from .mesh import check_mesh, load_mesh, prepare
+    from .mesh import prepare
 
     options = options or SkinOptions()
     timings: dict[str, float] = {}
     stage = _stage_timer(timings)
 
     with stage("load"):
-        mesh_name = Path(mesh).name if isinstance(mesh, (str, Path)) else "mesh"
-        vertices, faces = load_mesh(mesh) if isinstance(mesh, (str, Path)) else check_mesh(*mesh, mesh_name)
+        vertices, faces, mesh_name = _load(mesh)
         name = Path(skeleton).stem if isinstance(skeleton, (str, Path)) else "skeleton"
         skeleton = skeleton if isinstance(skeleton, Skeleton) else read_skeleton(skeleton)
     with stage("prepare"):
@@ -200,6 +208,15 @@ def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage
         info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
               "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths)})
+
+
+def _load(mesh) -> tuple[np.ndarray, np.ndarray, str]:
+    """(vertices [V, 3], faces [F, 3], the name errors use) of a mesh path or (vertices, faces) pair, checked."""
+    from .mesh import check_mesh, load_mesh
+
+    if isinstance(mesh, (str, Path)):
+        return (*load_mesh(mesh), Path(mesh).name)
+    return (*check_mesh(*mesh, "mesh"), "mesh")
 
 
 def _stage_timer(timings: dict[str, float]):

@@ -191,9 +191,10 @@ def write_folder_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> N
         shutil.rmtree(old, ignore_errors=True)
 
 
-def parents_first(parents: np.ndarray) -> list[int]:
-    """An order of the joints (parents [J], -1 for a root) in which every parent precedes its children, as
-    close to 0..J-1 as can be."""
+def parents_first(parents: np.ndarray) -> tuple[list[int], np.ndarray]:
+    """The joints (parents [J], -1 for a root) reordered so that every parent precedes its children, as close to
+    0..J-1 as can be: (order [J], the old index of each joint in the new order; parents [J] in the new order
+    and numbering)."""
     order: list[int] = []
     placed = np.zeros(len(parents), dtype=bool)
     for j in range(len(parents)):
@@ -203,7 +204,9 @@ def parents_first(parents: np.ndarray) -> list[int]:
             placed[j] = True
             j = parents[j]
         order.extend(reversed(chain))
-    return order
+    new_index = np.empty(len(parents), dtype=np.int64)
+    new_index[order] = np.arange(len(parents))
+    return order, np.array([new_index[parents[j]] if parents[j] >= 0 else -1 for j in order], dtype=np.int64)
 
 
 def decimal_strings(values: np.ndarray, decimals: int) -> np.ndarray:

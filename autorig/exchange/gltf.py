@@ -240,10 +240,7 @@ def _read(path: Path, data: bytes) -> Rig:
     skin_joints = list(skin.joints)
     J = len(skin_joints)
 
-    node_parent = np.full(len(nodes), -1)
-    for i, n in enumerate(nodes):
-        for c in n.children or []:
-            node_parent[c] = i
+    node_parent = node_parents(nodes)
     world = _world_matrices(nodes, node_parent)  # also rejects cyclic hierarchies before the walks below
     if skin.inverseBindMatrices is not None:
         ibm = _read_accessor(doc, buffers, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
@@ -254,23 +251,36 @@ def _read(path: Path, data: bytes) -> Rig:
     vertices, faces, weights = _gather_meshes(doc, buffers, [nodes[i] for i in skinned
                                                                if nodes[i].skin == skin_index], J)
 
-    as_joint = {node: j for j, node in enumerate(skin_joints)}
-    parents = np.full(J, -1)
-    for j, node in enumerate(skin_joints):
-        up = node_parent[node]
-        while up >= 0 and up not in as_joint:
-            up = node_parent[up]
-        parents[j] = as_joint.get(up, -1)
-    order = parents_first(parents)
-    new_index = np.empty(J, dtype=np.int64)
-    new_index[order] = np.arange(J)
-    parents = np.array([new_index[parents[j]] if parents[j] >= 0 else -1 for j in order], dtype=np.int64)
+    parents = joint_parents(node_parent, skin_joints)
+    order, parents = parents_first(parents)
 
     total = weights.sum(axis=1, keepdims=True)
     weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
     names = [nodes[skin_joints[j]].name or f"joint_{j}" for j in order]
     return Rig(names=names, parents=parents, joints=positions[order], weights=weights[:, order],
                vertices=vertices, faces=faces, template=skin.name or "")
+
+
+def node_parents(nodes: list[Node]) -> np.ndarray:
+    """[N] the parent node of each of a glTF's nodes, -1 for a scene root."""
+    node_parent = np.full(len(nodes), -1)
+    for i, node in enumerate(nodes):
+        for c in node.children or []:
+            node_parent[c] = i
+    return node_parent
+
+
+def joint_parents(node_parent: np.ndarray, skin_joints: list[int]) -> np.ndarray:
+    """[J] each skin joint's parent joint (an index into ``skin_joints``): its nearest ancestor node that is
+    also a joint of the skin, -1 if none (non-joint nodes in between, an armature node above, are skipped)."""
+    as_joint = {node: j for j, node in enumerate(skin_joints)}
+    parents = np.full(len(skin_joints), -1)
+    for j, node in enumerate(skin_joints):
+        up = node_parent[node]
+        while up >= 0 and up not in as_joint:
+            up = node_parent[up]
+        parents[j] = as_joint.get(up, -1)
+    return parents
 
 
 def _buffer_data(doc: GLTF2, buffer: Buffer, path: Path) -> bytes:

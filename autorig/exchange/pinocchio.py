@@ -53,6 +53,17 @@ def pinocchio_files(rig: Rig) -> dict[str, bytes]:
     return dict(zip(FILES, (skeleton.encode(), attachment.encode(), names.encode("utf-8"))))
 
 
+def unfit_skeleton(parents) -> str | None:
+    """Why Pinocchio's files cannot hold a skeleton (parents [J], -1 for a root), or None: they need one root
+    joint and at least one bone."""
+    parents = np.asarray(parents)
+    roots = int(np.count_nonzero(parents < 0))
+    if len(parents) >= 2 and roots == 1:
+        return None
+    return (f"the pinocchio format needs a skeleton with one root joint and at least one bone; this one has "
+            f"{roots} roots and {len(parents)} joints")
+
+
 def bone_weights(weights: np.ndarray, parents: np.ndarray) -> np.ndarray:
     """Per-joint skin weights turned into Pinocchio's per-bone weights (see the module docstring).
 
@@ -62,8 +73,9 @@ def bone_weights(weights: np.ndarray, parents: np.ndarray) -> np.ndarray:
     """
     weights = np.asarray(weights, dtype=np.float64)
     parents = np.asarray(parents, dtype=np.int64)
-    if len(parents) < 2 or np.count_nonzero(parents < 0) != 1:
-        raise ValueError("a Pinocchio skeleton needs one root (joint 0) and at least one bone")
+    problem = unfit_skeleton(parents)
+    if problem:
+        raise ValueError(problem)
     children = np.bincount(parents[1:], minlength=len(parents))
     bones = weights[:, parents[1:]] / children[parents[1:]]
     tips = children[1:] == 0

@@ -104,10 +104,7 @@ def skeleton_from_joints(names, parents, positions, *, source: str = "skeleton",
             up, steps = parents[up], steps + 1
             if steps > J:
                 raise bad(f"joint {names[j]!r} is its own ancestor (a parent cycle)")
-    order = parents_first(parents)
-    new_index = np.empty(J, dtype=np.int64)
-    new_index[order] = np.arange(J)
-    ordered_parents = np.array([new_index[parents[j]] if parents[j] >= 0 else -1 for j in order], dtype=np.int64)
+    order, ordered_parents = parents_first(parents)
     return Skeleton(names=[names[j] for j in order], parents=ordered_parents, positions=positions[order],
                     tips=tips[order], kind=kind, joint_nodes=joint_nodes)
 
@@ -186,7 +183,7 @@ def _from_gltf(data: bytes, path: Path) -> Skeleton:
 def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
     from pygltflib import GLTF2
 
-    from .gltf import _buffer_data, _read_accessor, _world_matrices
+    from .gltf import _buffer_data, _read_accessor, _world_matrices, joint_parents, node_parents
 
     doc = GLTF2.load_from_bytes(data) if data[:4] == b"glTF" else GLTF2.from_json(data.decode("utf-8"),
                                                                                   infer_missing=True)
@@ -203,12 +200,11 @@ def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
     if len(set(skin_joints)) != len(skin_joints) or min(skin_joints) < 0 or max(skin_joints) >= len(nodes):
         raise SkeletonError(f"skeleton {path}: the skin's joints are not distinct nodes")
 
-    node_parent = np.full(len(nodes), -1)
-    for i, node in enumerate(nodes):
-        for c in node.children or []:
-            if node_parent[c] >= 0:
-                raise SkeletonError(f"skeleton {path}: node {c} has two parents")
-            node_parent[c] = i
+    children = [c for node in nodes for c in node.children or []]
+    if len(set(children)) < len(children):
+        twice = next(c for c in children if children.count(c) > 1)
+        raise SkeletonError(f"skeleton {path}: node {twice} has two parents")
+    node_parent = node_parents(nodes)
     world = _world_matrices(nodes, node_parent)   # raises on a cyclic hierarchy
     if skin.inverseBindMatrices is not None:
         buffers = [_buffer_data(doc, b, path) for b in doc.buffers]
@@ -222,13 +218,7 @@ def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
         inverse_bind = np.linalg.inv(world[skin_joints])
     positions = np.linalg.inv(inverse_bind)[:, :3, 3]
 
-    as_joint = {node: j for j, node in enumerate(skin_joints)}
-    parents = np.full(len(skin_joints), -1)
-    for j, node in enumerate(skin_joints):
-        up = node_parent[node]
-        while up >= 0 and up not in as_joint:
-            up = node_parent[up]
-        parents[j] = as_joint.get(up, -1)
+    parents = joint_parents(node_parent, skin_joints)
     names = [nodes[n].name or f"node{n}" for n in skin_joints]
     # Order once here so the kept nodes can be listed in the rig's joint order.
     ordered = skeleton_from_joints(names, parents, positions, source=str(path), kind="gltf")
@@ -242,7 +232,7 @@ def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
     for node in joint_node_order:
         up = node_parent[node]
         while up >= 0:
-            if up not in as_joint and up not in extra:
+            if up not in skin_joints and up not in extra:
                 extra.append(up)
             up = node_parent[up]
     kept = joint_node_order + sorted(extra)
