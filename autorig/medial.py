@@ -85,7 +85,10 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
 def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
     """Greedy packing: visit samples by decreasing radius; keep one if no kept sphere contains its centre.
 
-    min_radius: ignore samples thinner than this (in height units).
+    min_radius: ignore samples thinner than this (in height units). The rig passes the field's finest cell
+    edge: a thinner sphere sits in a crease the field cannot resolve, most often a bump of a scanned surface.
+    Such spheres carry no limb the template could use, yet each is a node the graph, the orientation and the
+    search must consider (armadillo at 20k faces: 560 spheres -> 348, A* expansions 810 -> 88).
     """
     from scipy.spatial import cKDTree
 

@@ -77,7 +77,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     with stage("distance field"):
         field = distance_field(*prepared.coarse())
     with stage("medial spheres"):
-        spheres = pack_spheres(medial_samples(field))
+        spheres = pack_spheres(medial_samples(field), min_radius=field.finest)
     with stage("sphere graph"):
         graph = sphere_graph(field, spheres)
     with stage("orientation"):
