@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .distance import CORNERS, DistanceField, _key, _unkey
+from .distance import CORNERS, DistanceField, _key
 
 # Pairs of CORNERS indices that differ along exactly one axis: the 12 edges of a cell.
 EDGES = np.array([(a, b) for a in range(8) for b in range(a + 1, 8)
@@ -43,28 +43,26 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     min_angle_degrees: how far apart the two nearest-point directions must turn for an edge to count as
     crossing the medial surface; small angles come from surface noise (bumps make tiny medial branches).
     """
-    # Only edges with both ends inside can cross the medial surface: leaves with fewer than two inside
-    # corners (about half of them, outside the mesh) have none.
-    useful = (field.leaf_values > 0).sum(axis=1) >= 2
-    leaf_level, leaf_index = field.leaf_level[useful], field.leaf_index[useful]
+    # Only edges with both ends inside can cross the medial surface; the leaves know their corners' depths.
+    inside_corner = field.leaf_values > 0                                            # [C, 8]
+    leaf, edge = np.nonzero(inside_corner[:, EDGES[:, 0]] & inside_corner[:, EDGES[:, 1]])
+    leaf_level = field.leaf_level[leaf]
     edge_len = 2 ** (field.max_level - leaf_level)
-    a_idx = (leaf_index[:, None, :] + CORNERS[EDGES[:, 0]][None] * edge_len[:, None, None]).reshape(-1, 3)
-    b_idx = (leaf_index[:, None, :] + CORNERS[EDGES[:, 1]][None] * edge_len[:, None, None]).reshape(-1, 3)
+    a_idx = field.leaf_index[leaf] + CORNERS[EDGES[edge, 0]] * edge_len[:, None]
+    b_idx = field.leaf_index[leaf] + CORNERS[EDGES[edge, 1]] * edge_len[:, None]
     # Neighbouring leaves of one size share edges: count each once. An edge is its first corner, its axis
     # and its length, packed into one integer (corner coordinates are at most 2**max_level).
     side = 2 ** field.max_level + 1
     axis = np.argmax(b_idx - a_idx, axis=1)
-    level = np.repeat(leaf_level, len(EDGES))
-    edge_key = (((a_idx[:, 0] * side + a_idx[:, 1]) * side + a_idx[:, 2]) * 3 + axis) * (field.max_level + 1) + level
+    edge_key = (((a_idx[:, 0] * side + a_idx[:, 1]) * side + a_idx[:, 2]) * 3 + axis) * (field.max_level + 1) \
+        + leaf_level
     _, first = np.unique(edge_key, return_index=True)
-    ka, kb = _key(a_idx[first]), _key(b_idx[first])
-    ia = np.searchsorted(field.corner_keys, ka)
-    ib = np.searchsorted(field.corner_keys, kb)
+    a_idx, b_idx = a_idx[first], b_idx[first]
+    ia = np.searchsorted(field.corner_keys, _key(a_idx))
+    ib = np.searchsorted(field.corner_keys, _key(b_idx))
     da, db = field.corner_depth[ia], field.corner_depth[ib]
-    inside = (da > 0) & (db > 0)
-    ia, ib, da, db = ia[inside], ib[inside], da[inside], db[inside]
-    a = field.origin + _unkey(field.corner_keys[ia]) * field.finest
-    b = field.origin + _unkey(field.corner_keys[ib]) * field.finest
+    a = field.origin + a_idx * field.finest
+    b = field.origin + b_idx * field.finest
     ca, cb = field.corner_nearest[ia], field.corner_nearest[ib]
     ga = (a - ca) / da[:, None]
     gb = (b - cb) / db[:, None]
