@@ -93,17 +93,21 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
         grad = np.zeros_like(X)
         total = 0.0
 
+        # The field is queried once for the joints and the bones' sample points: a query's fixed cost (walking
+        # the octree's levels) is most of its time at these sizes.
+        a, b = X[parent[solid_bone]], X[child[solid_bone]]
+        s = BONE_SAMPLES[None, :, None]
+        pts = (a[:, None, :] * (1 - s) + b[:, None, :] * s).reshape(-1, 3)
+        depth, depth_grad = field.depth_and_gradient(np.vstack([X, pts]))
+
         # depth: joints no shallower than where they started; tips at least on the surface
-        d, gd = field.depth_and_gradient(X)
+        d, gd = depth[:J], depth_grad[:J]
         short = np.maximum(target_depth - d, 0.0) / scale
         total += TERMS["depth"] * np.sum(short ** 2)
         grad += TERMS["depth"] * (-2.0 * short / scale)[:, None] * gd
 
         # inside: sample points along solid bones stay inside
-        a, b = X[parent[solid_bone]], X[child[solid_bone]]
-        s = BONE_SAMPLES[None, :, None]
-        pts = (a[:, None, :] * (1 - s) + b[:, None, :] * s).reshape(-1, 3)
-        d, gd = field.depth_and_gradient(pts)
+        d, gd = depth[J:], depth_grad[J:]
         out = np.maximum(-d, 0.0) / scale
         total += TERMS["inside"] * np.sum(out ** 2)
         g_pts = (TERMS["inside"] * 2.0 * out / scale)[:, None] * -gd
