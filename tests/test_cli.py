@@ -114,6 +114,23 @@ def test_startup_imports_nothing_heavy():
     assert "HEAVY []" in out
 
 
+def test_rig_leaves_the_garbage_collector_on(tmp_path):
+    """The CLI loads the libraries with the collector paused: a rig must leave it on, still freeing cycles."""
+    from autorig.exchange.obj import write_obj
+    from autorig.samples import mannequin
+    sample = mannequin(pose="a")
+    write_obj(sample.vertices, sample.faces, tmp_path / "hero.obj")
+    script = ("import gc, sys\nfrom autorig.cli import cli\n"
+              "cli.main([sys.argv[1], '-o', sys.argv[2], '-q'], prog_name='autorig', standalone_mode=False)\n"
+              "class Node:\n    pass\n"
+              "node = Node(); node.me = node; del node\n"
+              "print('ENABLED', gc.isenabled(), 'FREED', gc.collect() > 0)\n")
+    out = subprocess.run([sys.executable, "-c", script, str(tmp_path / "hero.obj"), str(tmp_path / "hero.glb")],
+                         capture_output=True, text=True, check=True).stdout
+    assert "ENABLED True FREED True" in out
+    assert (tmp_path / "hero.glb").stat().st_size > 0
+
+
 def test_formats_match_the_writers():
     from autorig.exchange import FORMATS as WRITER_FORMATS
     assert list(FORMATS) == list(WRITER_FORMATS)
