@@ -46,6 +46,32 @@ class SphereGraph:
                            lengths=self.lengths * scale, distances=self.distances * scale,
                            predecessors=self.predecessors, shared=self.shared)
 
+    def path_tree(self, source: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The shortest-path tree from ``source``, each sphere's subtree as a range of a depth-first order:
+        (parent [S], first [S], end [S]). Sphere w lies on the path source -> v exactly when
+        first[w] <= first[v] < end[w]. Spheres that ``source`` cannot reach hang from it directly."""
+        cache = self.shared.setdefault("path_trees", {})
+        if source not in cache:
+            S = len(self.radii)
+            parent = self.predecessors[source].copy()
+            parent[parent < 0] = source
+            parent[source] = -1
+            order = np.argsort(parent, kind="stable")
+            starts = np.searchsorted(parent[order], np.arange(S + 1))
+            first, end = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
+            stack, counter = [source], 0
+            while stack:
+                node = stack.pop()
+                if node < 0:                        # every descendant of ~node has been numbered
+                    end[~node] = counter
+                    continue
+                first[node] = counter
+                counter += 1
+                stack.append(~node)
+                stack.extend(order[starts[node]:starts[node + 1]][::-1].tolist())
+            cache[source] = (parent, first, end)
+        return cache[source]
+
     def neighbours(self) -> list[np.ndarray]:
         """Adjacency lists: neighbours()[i] = indices of the spheres joined to sphere i."""
         if "neighbours" not in self.shared:

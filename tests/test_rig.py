@@ -135,3 +135,32 @@ def test_cesium_man_cli_end_to_end(tmp_path):
     assert result["joints"]["mean"] < 0.05 and result["joints"]["max"] < 0.10, result["joints"]
     assert result["weights"]["top1_pct"] > 85.0
     assert result["weights"]["pred_zero_rows"] == 0
+
+
+def test_overlap_measures_the_shared_part_of_each_path():
+    """The overlap penalty's shared length is the length of the path's edges that end on used spheres,
+    for every source and candidate sphere (checked by walking the paths)."""
+    from autorig.distance import distance_field
+    from autorig.embed.penalties import shared_length
+    from autorig.graph import sphere_graph
+    from autorig.medial import medial_samples, pack_spheres
+    from autorig.mesh import prepare
+
+    sample = mannequin(pose="a")
+    prepared = prepare(sample.vertices, sample.faces, "y", "z")
+    field = distance_field(*prepared.coarse())
+    graph = sphere_graph(field, pack_spheres(medial_samples(field), min_radius=field.finest))
+    S = len(graph.radii)
+    rng = np.random.default_rng(0)
+    for source in rng.choice(S, 5, replace=False):
+        used = rng.random(S) < 0.3
+        spheres = np.arange(S)
+        expected = np.zeros(S)
+        for v in spheres:
+            if np.isfinite(graph.distances[source, v]):
+                path = graph.path(int(source), int(v))
+                expected[v] = sum(np.linalg.norm(graph.centers[b] - graph.centers[a])
+                                  for a, b in zip(path, path[1:]) if used[b])
+            elif used[v] and v != source:
+                expected[v] = np.linalg.norm(graph.centers[v] - graph.centers[source])
+        np.testing.assert_allclose(shared_length(graph, int(source), used, spheres), expected, atol=1e-12)

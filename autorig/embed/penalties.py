@@ -235,37 +235,28 @@ def backtrack_penalty(problem: EmbeddingProblem, k: int, grandparent_sphere: int
     return WEIGHTS["backtrack"] * np.maximum(detour, 0.0) / problem.reduced.lengths[k]
 
 
-def shared_length(graph: SphereGraph, source: int, used: np.ndarray) -> np.ndarray:
-    """[S] for every sphere v, the length of the shortest path source -> v that runs over ``used`` spheres
-    ([S] bool): the sum, over the path's edges, of the edge's length when its far end is used.
+def shared_length(graph: SphereGraph, source: int, used: np.ndarray, spheres: np.ndarray) -> np.ndarray:
+    """[N] for each of ``spheres`` [N], the length of the shortest path source -> sphere that runs over
+    ``used`` spheres ([S] bool): the sum, over the path's edges, of the edge's length when its far end is used.
 
-    Sums along the shortest-path tree by pointer doubling: after k rounds every sphere holds the sum over
-    the last 2^k edges of its path, so log2(S) vectorised rounds cover the deepest path.
+    A used sphere w adds its incoming edge to the paths of exactly the spheres in its subtree of the
+    shortest-path tree, which the tree's depth-first ranges tell without walking any path (the search calls
+    this for every state it expands).
     """
-    own = np.zeros(len(graph.radii))
     far_ends = np.flatnonzero(used)
     far_ends = far_ends[far_ends != source]
     if len(far_ends) == 0:
-        return own
-    parent = graph.predecessors[source].copy()
-    parent[parent < 0] = source                      # the source, and spheres it cannot reach
-    parent[source] = source
-    # Only the few used spheres carry a length (the search calls this for every state it expands).
-    own[far_ends] = np.linalg.norm(graph.centers[far_ends] - graph.centers[parent[far_ends]], axis=1)
-    total, jump = own, parent
-    # Paths are far shallower than the log2(S) doublings of the worst case: stop once every pointer has
-    # reached the source (whose sum is 0).
-    while True:
-        pending = jump != source
-        if not pending.any():
-            return total
-        total = total + total[jump] * pending
-        jump = jump[jump]
+        return np.zeros(len(spheres))
+    parent, first, end = graph.path_tree(source)
+    own = np.linalg.norm(graph.centers[far_ends] - graph.centers[parent[far_ends]], axis=1)
+    position = first[spheres]
+    below = (first[far_ends, None] <= position[None, :]) & (position[None, :] < end[far_ends, None])
+    return (own[:, None] * below).sum(axis=0)
 
 
 def overlap_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, used: np.ndarray,
                     spheres: np.ndarray) -> np.ndarray:
     """[N] penalty: length of the path parent -> sphere that runs over ``used`` spheres ([S] bool, the
     spheres on the paths already placed, the parent's own sphere excluded)."""
-    shared = shared_length(problem.graph, parent_sphere, used)[spheres]
+    shared = shared_length(problem.graph, parent_sphere, used, spheres)
     return WEIGHTS["overlap"] * shared / problem.reduced.lengths[k]
