@@ -52,24 +52,22 @@ class SphereGraph:
         first[w] <= first[v] < end[w]. Spheres that ``source`` cannot reach hang from it directly."""
         cache = self.shared.setdefault("path_trees", {})
         if source not in cache:
+            from scipy.sparse import coo_matrix
+            from scipy.sparse.csgraph import depth_first_order
+
             S = len(self.radii)
             parent = self.predecessors[source].copy()
             parent[parent < 0] = source
             parent[source] = -1
-            order = np.argsort(parent, kind="stable")
-            starts = np.searchsorted(parent[order], np.arange(S + 1))
-            first, end = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
-            stack, counter = [source], 0
-            while stack:
-                node = stack.pop()
-                if node < 0:                        # every descendant of ~node has been numbered
-                    end[~node] = counter
-                    continue
-                first[node] = counter
-                counter += 1
-                stack.append(~node)
-                stack.extend(order[starts[node]:starts[node + 1]][::-1].tolist())
-            cache[source] = (parent, first, end)
+            child = np.flatnonzero(parent >= 0)
+            tree = coo_matrix((np.ones(len(child)), (parent[child], child)), shape=(S, S)).tocsr()
+            order = depth_first_order(tree, source, directed=True, return_predecessors=False)
+            size, up = [1] * S, parent.tolist()
+            for node in order[:0:-1].tolist():            # children before their parents
+                size[up[node]] += size[node]
+            first = np.empty(S, dtype=np.int64)
+            first[order] = np.arange(S)
+            cache[source] = (parent, first, first + np.array(size))
         return cache[source]
 
     def neighbours(self) -> list[np.ndarray]:
