@@ -177,11 +177,11 @@ def _bone_weights(V, F, heads, tails):
 
 def segment_distances(X, heads, tails):
     """Euclidean distance [N, B] from points X [N, 3] to the segments heads[b] -> tails[b] ([B, 3] each)."""
-    D = np.empty((len(X), len(heads)))
-    for b in range(len(heads)):
-        a, e = np.broadcast_to(heads[b], X.shape), np.broadcast_to(tails[b], X.shape)
-        D[:, b] = np.linalg.norm(X - closest_on_segments(X, a, e), axis=1)
-    return D
+    e = tails - heads                                                # [B, 3]
+    ee = np.einsum('bj,bj->b', e, e)
+    t = np.einsum('nbj,bj->nb', X[:, None, :] - heads[None], e) / np.where(ee > 0, ee, 1.0)
+    closest = heads[None] + np.clip(t, 0.0, 1.0)[:, :, None] * e[None]
+    return np.linalg.norm(X[:, None, :] - closest, axis=2)
 
 
 def closest_on_segments(X, heads, tails):
