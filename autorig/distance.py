@@ -135,10 +135,10 @@ class DistanceField:
         values = self.leaf_values[cell]
         # Trilinear weights per corner and axis: t for the far corner, 1 - t for the near one.
         factors = np.where(CORNERS[None, :, :] == 1, t[:, None, :], 1.0 - t[:, None, :])   # [N, 8, 3]
+        fx, fy, fz = factors[:, :, 0], factors[:, :, 1], factors[:, :, 2]
         signs = np.where(CORNERS == 1, 1.0, -1.0)                                          # [8, 3]
-        depth[in_cube] = np.einsum("nc,nc->n", factors.prod(axis=2), values)
-        for axis in range(3):
-            others = np.delete(factors, axis, axis=2).prod(axis=2)                          # [N, 8]
+        depth[in_cube] = np.einsum("nc,nc->n", fx * fy * fz, values)
+        for axis, others in enumerate((fy * fz, fx * fz, fx * fy)):                        # [N, 8] each
             gradient[in_cube, axis] = np.einsum("nc,nc->n", others * signs[:, axis], values) / (edge * self.finest)
         return depth, gradient
 
