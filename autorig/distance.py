@@ -228,17 +228,16 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     known_depth = np.zeros(0)
     known_nearest = np.zeros((0, 3))
 
-    def evaluate(corner_index: np.ndarray, parent_edge: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """Depth and nearest point at integer corner coordinates [N, 3] (finest units), cached.
+    def evaluate(corner_index: np.ndarray, parent_edge: int = 0) -> np.ndarray:
+        """Depth [N] at integer corner coordinates [N, 3] (finest units); depths and nearest points are cached.
         parent_edge: edge of the previous level's cells, whose corners are all known; the nearest of them
         lends its sign to points far enough from the surface (see SurfaceQuery.closest)."""
         nonlocal known_keys, known_depth, known_nearest
         keys = _key(corner_index)
-        uniq, inverse = np.unique(keys, return_inverse=True)
-        pos = np.searchsorted(known_keys, uniq)
-        have = (pos < len(known_keys)) & (known_keys[np.minimum(pos, len(known_keys) - 1)] == uniq) \
-            if len(known_keys) else np.zeros(len(uniq), bool)
-        new = uniq[~have]
+        pos = np.searchsorted(known_keys, keys)
+        have = (pos < len(known_keys)) & (known_keys[np.minimum(pos, len(known_keys) - 1)] == keys) \
+            if len(known_keys) else np.zeros(len(keys), bool)
+        new = np.unique(keys[~have])
         if len(new):
             new_index = _unkey(new)
             points = origin + new_index * finest
@@ -253,8 +252,7 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
             known_keys = keys_all[order]
             known_depth = np.concatenate([known_depth, d])[order]
             known_nearest = np.concatenate([known_nearest, near])[order]
-        pos = np.searchsorted(known_keys, uniq)
-        return known_depth[pos][inverse], known_nearest[pos][inverse]
+        return known_depth[np.searchsorted(known_keys, keys)]
 
     # Cells of the current level as integer minimum corners (finest units).
     cells = np.zeros((1, 3), dtype=np.int64)
@@ -262,14 +260,14 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     for level in range(max_level + 1):
         edge = 2 ** (max_level - level)
         corner_idx = cells[:, None, :] + CORNERS[None, :, :] * edge
-        corner_depth, _ = evaluate(corner_idx.reshape(-1, 3), 2 * edge if level else 0)
+        corner_depth = evaluate(corner_idx.reshape(-1, 3), 2 * edge if level else 0)
         corner_depth = corner_depth.reshape(-1, 8)
         if level == max_level:
             split = np.zeros(len(cells), dtype=bool)
         elif level < min_level:
             split = np.ones(len(cells), dtype=bool)
         else:
-            centre_depth, _ = evaluate(cells + edge // 2, edge)
+            centre_depth = evaluate(cells + edge // 2, edge)
             error = np.abs(corner_depth.mean(axis=1) - centre_depth)
             half_diagonal = np.sqrt(3) / 2 * edge * finest
             # Far outside the mesh nothing downstream needs detail, however curved the field is there.
