@@ -177,19 +177,16 @@ def _bone_weights(V, F, heads, tails):
 
 def segment_distances(X, heads, tails):
     """Euclidean distance [N, B] from points X [N, 3] to the segments heads[b] -> tails[b] ([B, 3] each)."""
-    e = tails - heads                                                # [B, 3]
-    ee = np.einsum('bj,bj->b', e, e)
-    t = np.einsum('nbj,bj->nb', X[:, None, :] - heads[None], e) / np.where(ee > 0, ee, 1.0)
-    closest = heads[None] + np.clip(t, 0.0, 1.0)[:, :, None] * e[None]
-    return np.linalg.norm(X[:, None, :] - closest, axis=2)
+    return np.linalg.norm(X[:, None, :] - closest_on_segments(X[:, None, :], heads[None], tails[None]), axis=2)
 
 
 def closest_on_segments(X, heads, tails):
-    """Closest points [N, 3] to X [N, 3] on the segments heads[k] -> tails[k] ([N, 3]); a point if they meet."""
+    """Closest points [..., 3] to X on the segments heads -> tails (all [..., 3], broadcast against each
+    other); a segment whose ends meet is that point."""
     e = tails - heads
-    ee = np.einsum('ij,ij->i', e, e)
-    t = np.einsum('ij,ij->i', X - heads, e) / np.where(ee > 0, ee, 1.0)
-    return heads + np.clip(t, 0.0, 1.0)[:, None] * e
+    ee = np.einsum('...j,...j->...', e, e)
+    t = np.einsum('...j,...j->...', X - heads, e) / np.where(ee > 0, ee, 1.0)
+    return heads + np.clip(t, 0.0, 1.0)[..., None] * e
 
 
 def nearest_visible_bones(V, F, heads, tails, dist, idx):
