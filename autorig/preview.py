@@ -30,6 +30,9 @@ _LEGEND_WIDTH = 2.3  # inches per column
 _LEGEND_ROW = 0.24   # inches per entry
 _DPI = 100
 _LABEL_SIZE = 7.5  # points
+# A thumbnail 160 pixels high shows no more than this: denser meshes are simplified before drawing (drawing
+# 120k faces took 6 s a thumbnail, 4,000 take about 0.1 s, and the decimation 0.3 s).
+_THUMBNAIL_FACES = 4000
 
 
 def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, up: str | None = None,
@@ -119,6 +122,8 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
     faces = np.asarray(rig.faces, dtype=np.int64)
     colours = _joint_colours(len(rig.names))
     face_joint = np.argmax(np.asarray(rig.weights)[faces].sum(axis=1), axis=1)
+    if len(faces) > _THUMBNAIL_FACES:
+        vertices, faces, face_joint = _simplified(vertices, faces, face_joint, _THUMBNAIL_FACES)
     span = max(float(np.ptp(vertices[:, 1])), 1e-12)
     pictures = {}
     for name, _, screen_x, toward_camera in _views():
@@ -133,6 +138,22 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
         figure.savefig(buffer, format="webp", dpi=_DPI, pil_kwargs={"quality": quality, "method": 4})
         pictures[name] = buffer.getvalue()
     return pictures
+
+
+def _simplified(vertices: np.ndarray, faces: np.ndarray, face_joint: np.ndarray, count: int
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The mesh (vertices [V, 3], faces [F, 3]) simplified to about ``count`` faces by quadric decimation
+    (fast-simplification, as the pipeline's coarse mesh), each new face taking the joint (``face_joint`` [F]) of
+    the original face whose centre is nearest its own: (vertices [V', 3], faces [F', 3], face_joint [F'])."""
+    import fast_simplification
+    from scipy.spatial import cKDTree
+
+    coarse_vertices, coarse_faces = fast_simplification.simplify(vertices, faces.astype(np.int32),
+                                                                 target_count=count)
+    coarse_vertices = np.asarray(coarse_vertices, dtype=np.float64)
+    coarse_faces = np.asarray(coarse_faces, dtype=np.int64)
+    _, nearest = cKDTree(vertices[faces].mean(axis=1)).query(coarse_vertices[coarse_faces].mean(axis=1))
+    return coarse_vertices, coarse_faces, face_joint[nearest]
 
 
 def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, screen_x, toward_camera,
