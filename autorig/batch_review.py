@@ -33,6 +33,7 @@ from .confidence import STRICT_THRESHOLD
 __all__ = ["write_review", "review_page", "review_order"]
 
 WEAK_PART = 0.8  # a confidence part below this is marked: it is what pulls the rig's confidence down
+SLOWEST_SHOWN = 3  # stages named on the card itself; the others are in its list of stage times
 
 
 def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRICT_THRESHOLD) -> None:
@@ -110,13 +111,17 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     if asset.confidence is not None:
         parts = " ".join(f'<span class="part{" weak" if value < WEAK_PART else ""}">{e(part)} {value:.2f}</span>'
                          for part, value in asset.confidence_parts.items())
-        lines.append(f'<p class="confidence">confidence <b>{asset.confidence:.2f}</b> {parts}</p>')
+        lines.append(f'<p class="confidence">confidence <b>{asset.confidence:.2f}</b><br>{parts}</p>')
     timings = asset.timings or asset.previous_timings
     seconds = asset.seconds or sum(asset.previous_timings.values())
     if timings:
-        stages = " · ".join(f"{e(stage)} {value:.2f}" for stage, value in timings.items())
+        # The slowest stages in sight, every stage (in pipeline order) one click away.
+        slowest = sorted(timings, key=timings.get, reverse=True)[:SLOWEST_SHOWN]
+        top = ", ".join(f"{e(stage)} {timings[stage]:.2f}" for stage in slowest)
+        stages = "".join(f"<li>{e(stage)} <b>{value:.2f}</b></li>" for stage, value in timings.items())
         earlier = " in the run that rigged it" if asset.status == "skipped" else ""
-        lines.append(f'<p class="times">{_seconds(seconds)}{earlier}: {stages}</p>')
+        lines.append(f'<details class="times"><summary>{_seconds(seconds)}{earlier}: {top}</summary>'
+                     f'<ol>{stages}</ol></details>')
     elif asset.seconds:
         lines.append(f'<p class="times">{_seconds(seconds)}</p>')
     if asset.failed and asset.error:
@@ -169,13 +174,14 @@ h1{font-size:20px;margin:.6em 0 .1em}.paths,.notes{color:#666;margin:.2em 0;font
 .tile b{display:block;font-size:20px}.tile.failed{border-color:#c33;color:#a11}.tile.low{border-color:#d90;color:#850}
 .controls{position:sticky;top:0;background:#f4f4f2;padding:.5em 0;z-index:1}
 #filter{width:22em;padding:.3em}#shown{color:#666;margin-left:.5em}
-main{display:grid;align-items:start;grid-template-columns:repeat(auto-fill,minmax(420px,1fr));gap:.6em}
-.card{display:flex;gap:.6em;background:#fff;border:1px solid #ddd;border-left:5px solid #6a6;border-radius:6px;
-padding:.5em;content-visibility:auto;contain-intrinsic-size:auto 180px}
-.card.failed{border-left-color:#c33}.card.low{border-left-color:#e90}.card[hidden]{display:none}
-.pics{display:flex;gap:2px;flex:none;min-width:120px;height:160px;align-items:center}
-.pics img{height:160px;width:auto}.nopic{color:#999;font-size:12px;width:120px;text-align:center}
-.about{min-width:0}.about h2{font-size:15px;margin:0;word-break:break-all}.about p{margin:.25em 0}
+main{display:grid;align-items:start;grid-template-columns:repeat(auto-fill,minmax(330px,1fr));gap:.6em}
+.card{background:#fff;border:1px solid #ddd;border-top:5px solid #6a6;border-radius:6px;padding:.5em;
+content-visibility:auto;contain-intrinsic-size:auto 330px}
+.card.failed{border-top-color:#c33}.card.low{border-top-color:#e90}.card[hidden]{display:none}
+.pics{display:flex;gap:6px;height:160px;align-items:center;justify-content:center;margin-bottom:.3em}
+.pics img{height:auto;max-height:160px;max-width:calc(50% - 3px)}.nopic{color:#999;font-size:12px}
+.about h2{font-size:15px;margin:0;word-break:break-all}.about p{margin:.25em 0}
+.times summary{cursor:pointer}.times ol{margin:.2em 0;padding-left:1.5em;columns:2}
 .badge{font-size:12px;font-weight:600;color:#363}.failed .badge{color:#a11}.low .badge{color:#850}
 .what,.times{color:#555;font-size:12px}.part{font-size:12px;color:#555;margin-right:.3em}
 .part.weak{color:#a11;font-weight:600}.error{color:#a11;font-family:ui-monospace,monospace;font-size:12px;

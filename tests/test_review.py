@@ -128,13 +128,16 @@ def test_page_in_chromium_cards_errors_pictures_filter_and_sort(batch, tmp_path)
         browser.open(page)
         cards = browser.evaluate("Array.from(document.querySelectorAll('article'), a => "
                                  "({name: a.dataset.name, text: a.innerText, visible: a.offsetHeight > 0, "
-                                 "weak: Array.from(a.querySelectorAll('.part.weak'), p => p.innerText)}))")
+                                 "weak: Array.from(a.querySelectorAll('.part.weak'), p => p.innerText), "
+                                 "stages: Array.from(a.querySelectorAll('.times li'), li => li.textContent)}))")
         assert [c["name"] for c in cards] == ["sub/bad.obj", f"props/{TUBE}", "hero.obj"]
         assert all(c["visible"] for c in cards)
         assert "not an OBJ file" in cards[0]["text"] and "failed" in cards[0]["text"]
         assert "low confidence" in cards[1]["text"] and re.search(r"confidence 0\.\d\d fit 0\.\d\d", cards[1]["text"])
         assert any(w.startswith("fit ") for w in cards[1]["weak"]) and not cards[2]["weak"]  # what pulls it down
-        assert "biped · up y · front z" in cards[2]["text"] and "embedding" in cards[2]["text"]
+        assert "biped · up y · front z" in cards[2]["text"] and re.search(r"\d\.\d s: \w", cards[2]["text"])
+        assert {"load", "embedding", "skin weights", "write", "thumbnails"} <= {s.rsplit(" ", 1)[0]
+                                                                                for s in cards[2]["stages"]}
         summary = browser.evaluate("document.querySelector('.summary').innerText")
         assert re.search(r"3\s+assets\s+2\s+ok\s+1\s+failed\s+0\s+skipped\s+1\s+low confidence", summary), summary
         widths = browser.evaluate("Promise.all(Array.from(document.images, i => i.decode().then(() => "
