@@ -97,6 +97,9 @@ class Chromium:
         self.events.clear()
         self.command("Page.navigate", {"url": Path(path).resolve().as_uri() + (f"?{query}" if query else "")})
         self._wait_for("Page.loadEventFired")
+        # Two frames: the first rendering is done, so that what is on screen is laid out (content-visibility:
+        # auto leaves cards unrendered, their innerText empty, until the browser has seen where they are).
+        self.evaluate("new Promise(done => requestAnimationFrame(() => requestAnimationFrame(done)))")
 
     def evaluate(self, expression: str):
         """The value of a JavaScript expression in the page (promises awaited)."""
