@@ -261,9 +261,9 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 
-    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4) or
-    ``ClusterError`` (1) for problems that stop the whole batch, all before any rigging; a failing asset
-    only gets status ``failed``.
+    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4),
+    ``ClusterError`` (1) or ``AutorigError`` (1: ``html`` without matplotlib) for problems that stop the whole
+    batch, all before any rigging; a failing asset only gets status ``failed``.
     """
     from .exchange import FORMATS
     from .pipeline import RigOptions, SkinOptions
@@ -999,10 +999,10 @@ def _make_parent(path: Path) -> None:
 
 
 def _require_thumbnails() -> None:
-    """The review page's thumbnails need matplotlib: say so before any rigging."""
+    """The review page's thumbnails need matplotlib: say so before any rigging (exit code 1, as for --preview)."""
     import importlib.util
     if importlib.util.find_spec("matplotlib") is None:
-        raise OutputError("the review page (html) needs matplotlib for its pictures: pip install 'autorig[preview]'")
+        raise AutorigError("the review page (html) needs matplotlib for its pictures: pip install 'autorig[preview]'")
 
 
 def _html_setting(input_dir: Path, output_dir: Path) -> Path | None:

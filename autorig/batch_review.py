@@ -101,7 +101,7 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     pictures = "".join(_picture(output_dir / asset.thumbnails[view], f"{view} of {asset.input}")
                        for view in ("front", "side") if view in asset.thumbnails)
     if not pictures:
-        pictures = f'<div class="nopic">{"no rig" if asset.failed else "no picture: rigged without --html"}</div>'
+        pictures = f'<div class="nopic">{_no_picture(asset)}</div>'
     name = e(asset.input)
     if not asset.failed:
         link = os.path.relpath(os.path.abspath(output_dir / asset.output), page_dir)
@@ -132,6 +132,14 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
             f'data-confidence="{confidence:.4f}" data-seconds="{seconds:.3f}" data-text="{e(words)}">'
             f'<div class="pics">{pictures}</div><div class="about"><h2>{name}</h2>'
             f'<p class="badge">{e(badge)}</p>{"".join(lines)}</div></article>')
+
+
+def _no_picture(asset: AssetResult) -> str:
+    if asset.failed:
+        return "no rig"
+    if "thumbnails" in (asset.timings or asset.previous_timings):
+        return "no picture: its worker could not draw one (matplotlib missing there?)"
+    return "no picture: rigged by a run without html (--force draws it)"
 
 
 def _picture(path: Path, alt: str) -> str:

@@ -191,3 +191,18 @@ def test_html_is_set_for_the_whole_batch_only(tmp_path):
     (tmp_path / "a" / "sub" / "x.obj").write_text("v 0 0 0\n")
     result = run("batch", tmp_path / "a", "-o", tmp_path / "out")
     assert result.exit_code == 2 and "html is set for the whole batch" in result.output
+
+
+def test_skipped_assets_without_pictures_say_why(batch, tmp_path):
+    assets, out, result, page = batch
+    shutil.copytree(out, tmp_path / "rigged")
+    manifest_path = tmp_path / "rigged" / ".autorig-batch.json"
+    manifest = json.loads(manifest_path.read_text())
+    hero = manifest["assets"]["hero.obj"]
+    del hero["thumbnails"], hero["timings"]["thumbnails"]  # as a run without --html leaves it
+    manifest_path.write_text(json.dumps(manifest))
+    again = run("batch", assets, "-o", tmp_path / "rigged", *AXES, "--html", tmp_path / "again.html")
+    assert again.exit_code == EXIT_SOME_FAILED
+    cards = {c["data-name"]: c for c in Cards((tmp_path / "again.html").read_text()).cards}
+    assert not cards["hero.obj"]["images"] and len(cards[f"props/{TUBE}"]["images"]) == 2
+    assert "no picture: rigged by a run without html (--force draws it)" in (tmp_path / "again.html").read_text()
