@@ -1026,7 +1026,8 @@ def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
          "summary": {"total": 4, "ok": 2, "failed": 1, "skipped": 1, "exit_code": 6},
          "assets": [{"input": "dogs/rex.obj", "output": "dogs/rex.rigged.glb", "status": "ok",
                      "previous": null, "template": "quadruped", "up": "y", "front": "z", "error": null,
-                     "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...}},
+                     "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...},
+                     "confidence_parts": {"fit": 0.9, ...}, "previous_timings": {}, "thumbnails": {}},
                     ...]}
     """
     from .exchange import write_file_atomic
