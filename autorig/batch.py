@@ -114,7 +114,7 @@ from .quiet import quiet_libraries
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
-           "EXIT_SOME_FAILED"]
+           "THUMBNAILS_FOLDER", "EXIT_SOME_FAILED"]
 
 DEFAULT_EXTENSIONS = ("obj", "off", "ply", "stl", "glb", "gltf")
 CONFIG_NAMES = ("autorig.toml", "autorig.json")
