@@ -488,12 +488,16 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--force", is_flag=True, help="Rig every asset, even those unchanged since the last run.")
 @click.option("--report", metavar="PATH", help="Write a JSON report here.")
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
+@click.option("--html", metavar="PATH",
+              help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
+                   "ones first (one offline file; needs matplotlib). Also: html = \"PATH\" in INPUT_DIR's "
+                   "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
 @_common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
                   skeleton_scale: str | None, up: str, front: str, voxels: int, max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, quiet: bool):
+                  junit: str | None, html: str | None, quiet: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
     \b
@@ -536,7 +540,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
-                            junit=junit, on_start=progress.on_start, on_result=progress.on_result)
+                            junit=junit, html=html, on_start=progress.on_start, on_result=progress.on_result)
     finally:
         progress.close()
     if not quiet:
