@@ -34,7 +34,8 @@ def main(argv=None) -> int:
     from autorig.learn import learn_template
 
     train = args.shared / "data" / "train"
-    folders = [p for p in sorted(train.iterdir()) if "biped_map" in json.loads((p / "joints.json").read_text())]
+    folders = [p for p in sorted(train.iterdir())
+               if (p / "joints.json").is_file() and "biped_map" in json.loads((p / "joints.json").read_text())]
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or Path(tmp)
         out.mkdir(parents=True, exist_ok=True)

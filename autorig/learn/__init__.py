@@ -19,7 +19,7 @@ import numpy as np
 from ..confidence import GOOD_ERROR
 from ..template import Helper, Template
 from .examples import Example, read_examples
-from .proportions import (example_positions, fat_joints, feet, mirror_pairs, skeleton_of_base,
+from .proportions import (example_positions, fat_joints, feet, fill_from_others, mirror_pairs, skeleton_of_base,
                           skeleton_of_examples, symmetrized)
 
 FOLDS = 3   # calibration folds (whole groups of examples held out together)
@@ -48,7 +48,8 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     examples = read_examples(paths, base)
     say(f"{len(examples)} examples")
     skeleton = skeleton_of_base(base) if base is not None else skeleton_of_examples(examples)
-    per_example = np.array([example_positions(e, skeleton, base) for e in examples])
+    per_example = fill_from_others(np.array([example_positions(e, skeleton, base) for e in examples]),
+                                   skeleton.parents)
     extents = np.array([np.ptp(e.prepared().work_vertices, axis=0) for e in examples])
     template = _template(skeleton, per_example, examples, base, name)
     settings, fields = _settings(examples, template, per_example, say)

@@ -52,7 +52,9 @@ def skeleton_of_examples(examples: list[Example]) -> Skeleton:
     common = [n for n in first.names if all(n in e.key_of for e in examples)]
     if len(common) < 2:
         raise InputError("the rigged examples share fewer than two joint names: are they one skeleton?")
-    carrying = {n for e in examples for n in common if e.weights[:, e.key_of[n]].max() > 1e-6}
+    # A joint that carries weight in a few examples only holds their props (a shield, a sword): a helper.
+    carrying = {n for n in common
+                if 2 * sum(e.weights[:, e.key_of[n]].max() > 1e-6 for e in examples) >= len(examples)}
     if not carrying:
         raise InputError("no joint carries weight in the rigged examples")
     parent_of = {n: (first.names[first.parents[first.key_of[n]]] if first.parents[first.key_of[n]] >= 0
@@ -134,7 +136,7 @@ def _fill_missing(positions: np.ndarray, skeleton: Skeleton, base: Template | No
     if len(missing) == 0:
         return positions
     if base is None:
-        raise InputError(f"joints {[skeleton.names[j] for j in missing]} have no position in an example")
+        return positions          # the learner places them from the other examples (``fill_from_others``)
     ref = {n: base.positions[i] for i, n in enumerate(base.names)}
     children = [np.flatnonzero(skeleton.parents == j) for j in range(len(skeleton.names))]
     known = ~np.isnan(positions[:, 0])
@@ -158,6 +160,22 @@ def _fill_missing(positions: np.ndarray, skeleton: Skeleton, base: Template | No
         residual = base_m - (base_a + t * axis)
         ratio = np.linalg.norm(out[b] - out[a]) / max(np.linalg.norm(axis), 1e-12)
         out[m] = out[a] + t * (out[b] - out[a]) + residual * ratio
+    return out
+
+
+def fill_from_others(per_example: np.ndarray, parents: np.ndarray) -> np.ndarray:
+    """[N, J, 3] with every joint an example could not place (NaN) at the mean offset from its parent over the
+    examples that could (a tip whose limb has no vertex of its own in one example)."""
+    out = per_example.copy()
+    for j in range(out.shape[1]):                 # parents first
+        missing = np.isnan(out[:, j, 0])
+        if not missing.any():
+            continue
+        p = parents[j]
+        if missing.all() or p < 0:
+            raise InputError("no example places the joint " + str(j))
+        offset = np.mean(out[~missing, j] - out[~missing, p], axis=0)
+        out[missing, j] = out[missing, p] + offset
     return out
 
 
