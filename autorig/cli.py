@@ -30,10 +30,11 @@ from .quiet import quiet_libraries
 
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
 # Must match autorig.exchange.FORMATS (a test checks); repeated here so --help need not import numpy.
-FORMATS = ["glb", "gltf", "pinocchio", "json"]
+FORMATS = ["glb", "gltf", "pinocchio", "json", "usda", "usdc", "usdz", "fbx"]
 # Must match autorig.extract.AUTO (a test checks): the template name of template-free skeletons.
 AUTO_TEMPLATE = "auto"
-FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json"}
+FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json", ".usda": "usda", ".usdc": "usdc",
+                    ".usdz": "usdz", ".fbx": "fbx"}
 
 EXIT_INTERNAL = 70   # EX_SOFTWARE from BSD sysexits: a bug in autorig
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
@@ -146,8 +147,8 @@ def cli():
 @click.option("-o", "--output", metavar="PATH",
               help="Where to write the rig. [default: beside MESH, e.g. hero.obj -> hero.rigged.glb]")
 @click.option("-f", "--format", "fmt", type=click.Choice(FORMATS),
-              help="Output format. [default: from -o's extension (.glb, .gltf, .json; no extension: "
-                   "pinocchio folder), else glb]")
+              help="Output format. [default: from -o's extension (.glb, .gltf, .json, .usda/.usdc/.usdz, "
+                   ".fbx; no extension: pinocchio folder), else glb]")
 @click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
               help="The mesh's up axis, or auto to detect it.")
 @click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
@@ -570,7 +571,7 @@ def _format_of(output: str | None) -> str:
     if not path.suffix or path.is_dir():
         return "pinocchio"  # Pinocchio output is a folder holding skeleton.out and attachment.out
     raise click.UsageError(f"cannot tell the output format from {output!r}: use --format "
-                           f"({', '.join(FORMATS)}) or an extension .glb, .gltf or .json")
+                           f"({', '.join(FORMATS)}) or an extension .glb, .gltf, .json, .usda, .usdc, .usdz or .fbx")
 
 
 def _refuse_input(out: Path, mesh: Path) -> None:
@@ -592,6 +593,11 @@ def _check_output(out: Path, fmt: str) -> None:
         raise OutputError(f"cannot write {out}: permission denied in {parent}")
     if fmt != "pinocchio" and out.is_dir():
         raise OutputError(f"cannot write {out}: it is a directory")
+    if fmt in ("usda", "usdc", "usdz", "fbx"):
+        # usd-core or Blender missing: say what to install before the slow work.
+        from .exchange.fbx import blender_path
+        from .exchange.usd import require_usd
+        (blender_path if fmt == "fbx" else require_usd)()
 
 
 def _require_matplotlib(what: str) -> None:
