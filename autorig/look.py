@@ -7,7 +7,7 @@ textures, so that the rigged file looks like the input (see ``autorig.result.Loo
   ``mtllib``, their paths relative to the OBJ, and the maps in them relative to the MTL. MTL becomes glTF's
   metallic-roughness material: ``Kd``/``map_Kd`` base colour, ``d``/``Tr`` alpha, ``Ke``/``map_Ke``
   emission, ``norm``/``map_Bump``/``bump`` normal map, ``Pr``/``map_Pr`` roughness (else from ``Ns`` as
-  Blender's importer does), ``Pm`` metallic (else 0). ``map_Ka``, ``map_Ks`` and ``map_Ns`` have no glTF
+  Blender's importer does), ``Pm`` metallic (else 0); a ``map_Kd`` replaces ``Kd``, as in Blender. ``map_Ka``, ``map_Ks`` and ``map_Ns`` have no glTF
   counterpart and are left out. Images other than PNG and JPEG cannot go in a glTF and are left out; so are
   missing ones (the material keeps its colour).
 - glTF/GLB: everything ``autorig.exchange.gltf.read_gltf_scene`` gathers: every UV set, COLOR_0, NORMAL, the
@@ -240,7 +240,9 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str]
             pbr["roughnessFactor"] = 1.0 - math.sqrt(min(max(numbers["ns"][0], 0.0), 1000.0) / 1000.0)
         material: dict = {"name": name, "pbrMetallicRoughness": pbr}
         if (base := texture(given.get("map_kd", []), folder)) is not None:
+            # The map replaces Kd, as Blender's OBJ importer reads it (its exporter writes Kd 0.8 beside a map).
             pbr["baseColorTexture"] = {"index": base}
+            pbr["baseColorFactor"][:3] = [1.0, 1.0, 1.0]
         if (rough := texture(given.get("map_pr", []), folder)) is not None:
             pbr["metallicRoughnessTexture"] = {"index": rough}
         for key in ("norm", "map_bump", "bump"):
