@@ -54,7 +54,10 @@ Exit codes:
 
 _DEBUG = "autorig.debug"  # key in click's ctx.meta, which a group shares with its subcommands
 
-# Shared by 'autorig rig' and 'autorig batch'.
+# Shared by 'autorig rig' and 'autorig batch'. NAME_SCHEMES must match autorig.naming.NAME_SCHEMES.
+NAME_SCHEMES = ["template", "mixamo"]
+NAMES_HELP = ("Joint names in the output: the template's, or mixamo (mixamorig:Hips, mixamorig:LeftUpLeg, ...; "
+              "biped only) for animation libraries and Unity's Humanoid auto-mapping.")
 VOXELS_HELP = "--template auto: voxels along the mesh's longest side (finer finds thinner limbs)."
 MAX_SEGMENTS_HELP = "--template auto: the most bones per chain (limb), plus one for each chain hanging from it."
 
@@ -168,12 +171,14 @@ def cli():
 @click.option("--skeleton-scale", default=None, metavar="FLOAT|auto",
               help="--skeleton: multiply its positions by FLOAT, or auto: fit it to the mesh's size. "
                    "[default: auto for .bvh, else 1 (positions in the mesh's units)]")
+@click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
+              help=NAMES_HELP)
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
                 strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
-                skeleton_scale: str | None, verbose: bool, quiet: bool):
+                skeleton_scale: str | None, names: str, verbose: bool, quiet: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
     --skeleton, compute skin weights for your own skeleton.
 
@@ -186,9 +191,17 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     from .template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
-        return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, verbose, quiet, start)
+        return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, names, verbose, quiet,
+                             start)
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
+    if names != "template":
+        from .naming import rename_joints
+        from .result import Rig
+        # A template without Mixamo names fails here, before any slow work.
+        joint_names = ["root"] if skeleton == AUTO_TEMPLATE else list(skeleton.names)
+        rename_joints(Rig(names=joint_names, parents=None, joints=None, weights=None, vertices=None, faces=None),
+                      names)
     if "auto" not in (up, front):
         frame_rotation(up, front)  # rejects up parallel to front before any slow work
     out_path, fmt = _output_for(mesh_path, output, fmt, preview)
@@ -204,7 +217,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         if strict and confidence < STRICT_THRESHOLD:
             raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
                                      f"({_weakest(result.info['confidence_parts'])}); nothing written")
-        preview_path = _write(result, out_path, fmt, mesh_path, preview, verbose)
+        preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
     if not quiet:
@@ -247,7 +260,7 @@ def _import_paused(modules: tuple[str, ...], fmt: str) -> None:
 
 
 def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | None, output: str | None,
-                  fmt: str | None, preview: bool, verbose: bool, quiet: bool, start: float) -> None:
+                  fmt: str | None, preview: bool, names: str, verbose: bool, quiet: bool, start: float) -> None:
     """``autorig MESH --skeleton FILE``: weights for the user's skeleton (``autorig.pipeline.skin``)."""
     ctx = click.get_current_context()
     if skeleton_file is None:
@@ -276,7 +289,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     with quiet_libraries(shown=verbose):
         _import_paused(SKIN_MODULES, fmt)
         result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale))
-        preview_path = _write(result, out_path, fmt, mesh_path, preview, verbose)
+        preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
     if not quiet:
@@ -445,12 +458,14 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--force", is_flag=True, help="Rig every asset, even those unchanged since the last run.")
 @click.option("--report", metavar="PATH", help="Write a JSON report here.")
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
+@click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
+              help=NAMES_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
 @_common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
                   skeleton_scale: str | None, up: str, front: str, voxels: int, max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, quiet: bool):
+                  junit: str | None, names: str, quiet: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
     \b
@@ -493,7 +508,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
-                            junit=junit, on_start=progress.on_start, on_result=progress.on_result)
+                            junit=junit, names=names, on_start=progress.on_start, on_result=progress.on_result)
     finally:
         progress.close()
     if not quiet:
@@ -553,6 +568,12 @@ def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, ver
         for stage, seconds in timings.items():
             click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
     return preview_path
+
+
+def _named(result, names: str):
+    """The rig with its joints named as ``--names`` says (``autorig.naming``)."""
+    from .naming import rename_joints
+    return rename_joints(result, names)
 
 
 def _weakest(parts: dict[str, float]) -> str:

@@ -26,7 +26,7 @@ import numpy as np
 from .errors import InputError
 from .result import Image, Look
 
-__all__ = ["load_look"]
+__all__ = ["load_look", "material_files"]
 
 
 def load_look(path: str | Path, faces: np.ndarray) -> Look | None:
@@ -178,6 +178,32 @@ def _split_seams(table: np.ndarray, positions: int) -> tuple[np.ndarray, np.ndar
 
 
 # ------------------------------------------------------------------------------------------------------ MTL
+
+def material_files(obj_path: Path) -> list[tuple[str, list[str]]]:
+    """[(an MTL file named by ``mtllib``, relative to the OBJ; the map files it names, relative to it)]: what
+    an OBJ's look reads besides the OBJ (``autorig batch`` sends them to its workers)."""
+    try:
+        text = Path(obj_path).read_bytes().decode("latin-1")
+    except OSError:
+        return []
+    found = []
+    for line in text.replace("\r", "\n").split("\n"):
+        parts = line.partition("#")[0].split()
+        if parts[:1] != ["mtllib"]:
+            continue
+        for library in parts[1:]:
+            try:
+                mtl = (Path(obj_path).parent / library).read_bytes().decode("latin-1")
+            except OSError:
+                found.append((library, []))
+                continue
+            maps = [_map_file(statement[1:]) for statement in (l.partition("#")[0].split()
+                                                               for l in mtl.replace("\r", "\n").split("\n"))
+                    if statement and (statement[0].lower().startswith("map_")
+                                      or statement[0].lower() in ("bump", "norm", "disp", "decal", "refl"))]
+            found.append((library, [m.replace("\\", "/") for m in maps if m]))
+    return found
+
 
 _MAP_OPTIONS_WITH_VALUES = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1, "-imfchan": 1,
                             "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1}
