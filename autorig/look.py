@@ -53,11 +53,13 @@ def load_look(path: str | Path, faces: np.ndarray) -> Look | None:
 
 def _obj_look(path: Path) -> Look | None:
     try:
-        text = path.read_bytes().decode("latin-1")
+        data = path.read_bytes()
     except OSError as e:
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
-    if not any(key in text for key in ("\nvt", "\nvn", "usemtl", "mtllib")) and not _has_vertex_colors(text):
+    # A bare OBJ (most scans) is passed over at the speed of a byte search, with no decoding.
+    if not any(key in data for key in (b"vt ", b"vn ", b"usemtl", b"mtllib")) and not _has_vertex_colors(data):
         return None
+    text = data.decode("latin-1")
     text = text.replace("\r\n", "\n").replace("\r", "\n").replace("\\\n", " ").replace("\t", " ")
     positions, colors, uvs, normals = 0, [], [], []
     corners: list[tuple[int, int, int]] = []      # (v, vt, vn) of every triangle corner, 0-based, -1 if none
@@ -135,10 +137,13 @@ def _obj_look(path: Path) -> Look | None:
                 samplers=[{"wrapS": 10497, "wrapT": 10497}] if textures else [], images=images)
 
 
-def _has_vertex_colors(text: str) -> bool:
-    start = text.find("\nv ")
-    line = text[start + 1: text.find("\n", start + 1)] if start >= 0 else ""
-    return len(line.partition("#")[0].split()) >= 7
+def _has_vertex_colors(data: bytes) -> bool:
+    """Whether the first vertex line has colours (x y z r g b): files give all vertices colours or none."""
+    start = data.find(b"v ")
+    while start > 0 and data[start - 1:start] not in b"\n\r":
+        start = data.find(b"v ", start + 1)
+    line = data[start: data.find(b"\n", start)] if start >= 0 else b""
+    return len(line.partition(b"#")[0].split()) >= 7
 
 
 def _corner(spec: str, positions: int, uvs: int, normals: int) -> tuple[int, int, int]:

@@ -235,10 +235,7 @@ def read_glb(path: str | os.PathLike) -> Rig:
     ancestor node that is also a joint of the skin. Weight rows are rescaled to sum to 1.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(f"cannot read {path}: {e.strerror or e}") from None
+    data = _file_bytes(path)
     try:
         return _read(path, data)
     except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
@@ -291,10 +288,7 @@ def read_gltf_scene(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, Lo
     and lines are ignored. Raises ``InputError`` (one line naming the file) for anything unreadable.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+    data = _file_bytes(path)
     try:
         doc = _parse(data)
         buffers = [_buffer_data(doc, b, path) for b in doc.buffers or []]
@@ -321,6 +315,13 @@ def read_gltf_scene(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, Lo
         message = " ".join(str(e).split())[:150] or type(e).__name__
         raise InputError(f"{path}: cannot read as glTF ({message})") from None
     return gathered.vertices, gathered.faces, look
+
+
+def _file_bytes(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(f"cannot read {path}: {e.strerror or e}") from None
 
 
 def _parse(data: bytes) -> GLTF2:
