@@ -224,15 +224,17 @@ def test_pose_keeps_the_look_and_preview_reads_it(cube, tmp_path):
 
     from autorig.cli import cli
     from test_pose import MOVES, POSES
-    rig = rigged_mannequin()[1]
-    # The mannequin with the cube's look would not fit; give it a look of its own: one UV per vertex.
+    from dataclasses import replace
+
     from autorig.result import Image, Look
+    rig = rigged_mannequin()[1]   # shared by other tests: changed only in a copy
+    # The mannequin with the cube's look would not fit; give it a look of its own: one UV per vertex.
     V, F = len(rig.vertices), len(rig.faces)
-    rig.look = Look(vertex_of=np.arange(V), faces=rig.faces, texcoords=[rig.vertices[:, :2].astype(np.float32)],
+    rig = replace(rig, look=Look(vertex_of=np.arange(V), faces=rig.faces, texcoords=[rig.vertices[:, :2].astype(np.float32)],
                     colors=None, normals=None, face_material=np.zeros(F, dtype=np.int64),
                     face_part=np.zeros(F, dtype=np.int64), parts=[{"name": "body", "extras": {"a": 1}}],
                     materials=[{"name": "skin", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                    textures=[{"source": 0}], samplers=[], images=[Image(JPEG, "image/jpeg", "photo")])
+                    textures=[{"source": 0}], samplers=[], images=[Image(JPEG, "image/jpeg", "photo")]))
     rigged, walk, motion = tmp_path / "hero.glb", tmp_path / "walk.glb", tmp_path / "moves.bvh"
     write_glb(rig, rigged)
     motion.write_text(mannequin_bvh(POSES, MOVES))
