@@ -32,7 +32,8 @@ __all__ = ["load_look", "material_files"]
 def load_look(path: str | Path, faces: np.ndarray) -> Look | None:
     """The look of the mesh file ``path`` whose triangles ``load_mesh`` read as ``faces`` [F, 3], or None.
 
-    Raises ``InputError`` for an unreadable file; a missing MTL or texture only leaves that part out.
+    Raises ``InputError`` for an unreadable file; a missing MTL or texture only leaves that part out, and OBJ
+    texture coordinates or normals that do not parse or point past the file's leave the whole look out.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -40,7 +41,12 @@ def load_look(path: str | Path, faces: np.ndarray) -> Look | None:
         from .exchange.gltf import read_gltf_scene
         look = read_gltf_scene(path)[2]
     elif suffix == ".obj":
-        look = _obj_look(path)
+        try:
+            look = _obj_look(path)
+        except (ValueError, IndexError):
+            # Texture coordinates or normals that do not parse or point nowhere: the shape, which load_mesh
+            # has checked, still rigs; the look is left out rather than guessed.
+            look = None
     else:
         return None
     if look is not None and not np.array_equal(np.asarray(look.vertex_of)[look.faces], faces):

@@ -173,6 +173,26 @@ def test_a_bare_mesh_has_no_look_and_a_vertex_colour_obj_keeps_its_colours(tmp_p
     np.testing.assert_array_equal(look.colors[:, :3], [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]])
 
 
+def test_a_look_that_cannot_be_read_is_left_out_and_the_shape_still_rigs(tmp_path):
+    path = tmp_path / "bad_uv.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\n"
+                    "f 1/1 3/9 2/1\nf 1/1 2/1 4/1\nf 1/1 4/1 3/1\nf 2/1 3/1 4/1\n")
+    assert load_look(path, load_mesh(path)[1]) is None
+
+
+def test_a_gltf_whose_image_file_is_missing_keeps_its_colours(cube, tmp_path):
+    from autorig.exchange.gltf import gltf_bytes, read_gltf_scene
+    document = json.loads(gltf_bytes(cube_rig(cube)))
+    document["images"][0] = {"uri": "gone.png"}
+    path = tmp_path / "missing_image.gltf"
+    path.write_text(json.dumps(document))
+    vertices, faces, look = read_gltf_scene(path)
+    assert look.images == [] and look.textures == []
+    assert [m["pbrMetallicRoughness"]["baseColorFactor"] for m in look.materials] == [
+        [1, 1, 1, 1], [1, 1, 1, 1], [0, 0.5, 1, 0.5]]
+    assert all("baseColorTexture" not in m["pbrMetallicRoughness"] for m in look.materials)
+
+
 @pytest.fixture(scope="module")
 def cesium(tmp_path_factory):
     source = TEXTURED / "CesiumMan.glb"

@@ -147,8 +147,13 @@ def look_of(doc: GLTF2, buffers: list[bytes], gathered: Gathered, mesh_nodes: li
     """The :class:`Look` of ``gathered`` (from ``gather_primitives`` over ``mesh_nodes``) and ``doc``'s
     materials, textures, samplers and images (read from ``path``'s folder when they are files)."""
     document = json.loads(doc.to_json())
-    images = [Image(data=_image_bytes(doc, buffers, image, path), mime_type="", name=image.name or "")
-              for image in doc.images or []]
+    try:
+        images = [Image(data=_image_bytes(doc, buffers, image, path), mime_type="", name=image.name or "")
+                  for image in doc.images or []]
+    except (OSError, ValueError):
+        # An image file that is not there: the materials keep their colours, without textures.
+        images, document["textures"] = [], []
+        document["materials"] = [_without_textures(m) for m in document.get("materials", [])]
     for image, source in zip(images, doc.images or []):
         image.mime_type = source.mimeType or image_mime_type(image.data)
     parts = []
@@ -164,6 +169,13 @@ def look_of(doc: GLTF2, buffers: list[bytes], gathered: Gathered, mesh_nodes: li
                 face_part=gathered.face_part, parts=parts, materials=document.get("materials", []),
                 textures=document.get("textures", []), samplers=document.get("samplers", []), images=images,
                 extras={k: v for k, v in extras.items() if not k.startswith("autorig_")})
+
+
+def _without_textures(item):
+    """A material's JSON without its texture references (``baseColorTexture``, ``normalTexture``, ...)."""
+    if isinstance(item, dict):
+        return {k: _without_textures(v) for k, v in item.items() if not k.endswith("Texture")}
+    return item
 
 
 def _image_bytes(doc: GLTF2, buffers: list[bytes], image: GltfImage, path: Path) -> bytes:
