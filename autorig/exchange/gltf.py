@@ -13,6 +13,12 @@ What is written (node index = joint index, so the file reads back in the rig's o
 - one skin over all joints, named after the template, whose ``inverseBindMatrices`` translate by minus each
   joint's position (the bind pose is the rest pose the rig was built in).
 
+A rig with a look (``rig.look``: the input's UVs, colours, normals, materials, textures) is written on the
+look's vertices instead (the input's vertices, then the seam copies), with ``TEXCOORD_n`` and ``COLOR_0``, the
+input's normals where it had them, one mesh node per input mesh, one primitive per material, and the images
+byte for byte in the buffer (:mod:`autorig.exchange.gltf_look`); the scene's ``extras`` say which input vertex
+each seam copy stands for (``autorig_input_vertices``, ``autorig_copies_of``).
+
 A rig re-weighted on a glTF's own skeleton (``rig.joint_nodes``, from ``autorig MESH --skeleton rig.glb``) keeps
 that file's joints instead: nodes ``0 .. J-1`` are its joints with their names and local transforms (matrix or
 TRS) as the file had them, then the non-joint nodes above them, then the mesh node; the skin has the file's
