@@ -320,3 +320,22 @@ def test_batch_with_mixamo_names(mannequin_obj, tmp_path):
     run = run_cli("batch", assets, "-o", tmp_path / "rigged", "--names", "mixamo", "-j", "1")
     assert run.returncode == 0, run.stderr
     assert "mixamorig:LeftUpLeg" in read_glb(tmp_path / "rigged" / "hero.rigged.glb").names
+
+
+def test_relative_indices_and_mixed_corners_give_the_same_look_as_plain_ones(cube, tmp_path):
+    """The vectorised reader takes the usual OBJ, the line-by-line one the rest: they agree."""
+    plain = load_look(cube, load_mesh(cube)[1])
+    lines, vertices = [], 0
+    for line in CUBE_OBJ.splitlines():
+        if line.startswith("v "):
+            vertices += 1
+        if line.startswith("f "):   # v/vt -> relative v, absolute vt
+            line = "f " + " ".join(f"{int(c.split('/')[0]) - vertices - 1}/{c.split('/')[1]}" for c in line.split()[1:])
+        lines.append(line)
+    relative = cube.with_name("relative.obj")
+    relative.write_text("\n".join(lines) + "\n")
+    look = load_look(relative, load_mesh(relative)[1])
+    for name in ("vertex_of", "faces", "face_material", "face_part"):
+        np.testing.assert_array_equal(getattr(look, name), getattr(plain, name))
+    np.testing.assert_array_equal(look.texcoords[0], plain.texcoords[0])
+    assert look.parts == plain.parts and look.materials == plain.materials
