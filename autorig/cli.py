@@ -196,12 +196,9 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if names != "template":
-        from .naming import rename_joints
-        from .result import Rig
+        from .naming import check_names
         # A template without Mixamo names fails here, before any slow work.
-        joint_names = ["root"] if skeleton == AUTO_TEMPLATE else list(skeleton.names)
-        rename_joints(Rig(names=joint_names, parents=None, joints=None, weights=None, vertices=None, faces=None),
-                      names)
+        check_names(["root"] if skeleton == AUTO_TEMPLATE else list(skeleton.names), names)
     if "auto" not in (up, front):
         frame_rotation(up, front)  # rejects up parallel to front before any slow work
     out_path, fmt = _output_for(mesh_path, output, fmt, preview)

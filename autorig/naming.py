@@ -14,7 +14,7 @@ from dataclasses import replace
 from .errors import TemplateError
 from .result import Rig
 
-__all__ = ["NAME_SCHEMES", "MIXAMO", "rename_joints", "template_names"]
+__all__ = ["NAME_SCHEMES", "MIXAMO", "rename_joints", "check_names", "template_names"]
 
 NAME_SCHEMES = ("template", "mixamo")
 
@@ -39,15 +39,20 @@ def rename_joints(rig: Rig, scheme: str) -> Rig:
 
     Raises ``TemplateError`` when the rig's joints are not the biped template's, which is all Mixamo names.
     """
+    check_names(rig.names, scheme)
     if scheme == "template":
         return rig
-    if scheme != "mixamo":
+    return replace(rig, names=[MIXAMO[name] for name in rig.names])
+
+
+def check_names(joint_names: list[str], scheme: str) -> None:
+    """Raise ``TemplateError`` unless joints called ``joint_names`` can be named by ``scheme``."""
+    if scheme not in NAME_SCHEMES:
         raise TemplateError(f"unknown joint names {scheme!r}: choose one of {', '.join(NAME_SCHEMES)}")
-    missing = [name for name in rig.names if name not in MIXAMO]
+    missing = [name for name in joint_names if name not in MIXAMO] if scheme == "mixamo" else []
     if missing:
         raise TemplateError(f"--names mixamo: Mixamo names the biped template's joints only, not "
                             f"{', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
-    return replace(rig, names=[MIXAMO[name] for name in rig.names])
 
 
 def template_names(names: list[str]) -> list[str]:
