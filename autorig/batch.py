@@ -39,6 +39,8 @@ Keys are ``template`` (a built-in name, ``auto``, or a ``.json`` template file r
 ``autorig MESH --skeleton FILE``), ``up`` and ``front`` (``x``, ``-z``, ... or ``auto`` to detect it, as on the
 command line). A glob without ``/`` matches the file name in this folder or any folder below; a glob with ``/``
 matches the path relative to the config's folder; ``*`` also matches ``/``; matching is case-sensitive.
+The input folder's own config may also set ``html = "review.html"`` at its top: the review page (see Reports),
+relative to the output folder, as if given as ``html`` (which wins).
 
 Options cascade as in EditorConfig, each key on its own: the command line's ``--template`` (or ``--skeleton``),
 ``--up`` and ``--front`` first, then each config from ``input_dir`` down to the asset's folder (so the nearest
@@ -72,6 +74,14 @@ Failures
     ``BatchResult.exit_code`` is 0 when every asset is rigged (now or in an earlier run) and
     ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run.
 
+Reports
+    ``report`` (JSON), ``junit`` (JUnit XML) and ``html`` (a page to review the batch by eye:
+    ``autorig.batch_review``) are written at the end, atomically; each may lie inside ``output_dir``, in
+    folders that do not exist yet. With ``html`` the workers also draw each rig's front and side thumbnails
+    (``autorig.preview.render_thumbnails``, its ``thumbnails`` stage time) into
+    ``output_dir/.autorig-thumbnails/``, and the manifest keeps them, with the stage times and the
+    confidence's parts, so that a resumed run's page still shows the skipped assets in full.
+
 Parallelism
     Locally, a process pool of ``jobs`` workers started with 'spawn' (forking a process that has threads is
     unsafe). With ``scheduler="tcp://host:port"`` the assets go to an existing Dask distributed cluster
@@ -104,14 +114,16 @@ from .quiet import quiet_libraries
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
-           "EXIT_SOME_FAILED"]
+           "THUMBNAILS_FOLDER", "EXIT_SOME_FAILED"]
 
 DEFAULT_EXTENSIONS = ("obj", "off", "ply", "stl", "glb", "gltf")
 CONFIG_NAMES = ("autorig.toml", "autorig.json")
 MANIFEST_NAME = ".autorig-batch.json"
+THUMBNAILS_FOLDER = ".autorig-thumbnails"  # in the output folder: hidden, so a later batch of it skips them
 EXIT_SOME_FAILED = 7  # some of the batch's assets failed (6 is rig --strict's low confidence)
 
 _CONFIG_KEYS = ("template", "skeleton", "up", "front")
+_BATCH_KEYS = ("html",)  # only in the input folder's own config: the review page, relative to the output folder
 _MANIFEST_VERSION = 1
 _MANIFEST_INTERVAL = 2.0  # seconds between manifest saves while running, so an interrupted batch resumes
 # libigl's own thread pool (its AABB distance queries and winding numbers) reads IGL_NUM_THREADS: without it each
@@ -142,8 +154,12 @@ class AssetResult:
     error       the one-line error of a failure (also of a skipped earlier failure), naming the asset
     error_type  the error's class name (``InputError``, ``RigFailedError``, ...), else None
     confidence  ``rig.info["confidence"]`` when the pipeline reports one, else None
+    confidence_parts  ``rig.info["confidence_parts"]``, what the confidence is the product of, else {}
     seconds     wall time of the work on this asset, transfer included (0 when skipped)
     timings     {stage: seconds} of the pipeline and the ``write`` stage ({} when skipped)
+    previous_timings  for ``skipped``: the ``timings`` of the run that rigged it, else {}
+    thumbnails  {"front": path, "side": path} of its small pictures (WebP) relative to the output folder, when
+                a run with ``html`` drew them (kept for skipped assets), else {}
     """
     input: str
     output: str
@@ -157,6 +173,9 @@ class AssetResult:
     confidence: float | None = None
     seconds: float = 0.0
     timings: dict[str, float] = field(default_factory=dict)
+    confidence_parts: dict[str, float] = field(default_factory=dict)
+    previous_timings: dict[str, float] = field(default_factory=dict)
+    thumbnails: dict[str, str] = field(default_factory=dict)
 
     @property
     def failed(self) -> bool:
@@ -212,6 +231,7 @@ class _Job:
     options: object
     fmt: str
     names: str = "template"
+    thumbnails: bool = False
 
 
 def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, template: str = "biped",
@@ -219,7 +239,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                fmt: str = "glb", extensions: Iterable[str] = DEFAULT_EXTENSIONS,
                jobs: int | None = None, scheduler: str | None = None, force: bool = False,
                report: str | os.PathLike | None = None, junit: str | os.PathLike | None = None,
-               names: str = "template", on_start: Callable[[int, int], None] | None = None,
+               html: str | os.PathLike | None = None, names: str = "template",
+               on_start: Callable[[int, int], None] | None = None,
                on_result: Callable[[AssetResult], None] | None = None) -> BatchResult:
     """Rig every mesh under ``input_dir`` into ``output_dir`` (see the module docstring).
 
@@ -234,15 +255,19 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     jobs               local worker processes (default: the CPUs this process may use)
     scheduler          address of a Dask scheduler, e.g. ``tcp://10.0.0.5:8786``, instead of local processes
     force              rig every asset even if unchanged since the last run
-    report, junit      where to write the JSON and JUnit XML reports (atomically), if anywhere
+    report, junit      where to write the JSON and JUnit XML reports (atomically), if anywhere; a path inside
+                       ``output_dir`` may lie in folders that do not exist yet
+    html               where to write the review page (``autorig.batch_review``), if anywhere; default the
+                       ``html`` of ``input_dir``'s own config file. The workers then draw each rig's thumbnails
+                       (needs matplotlib), kept in ``output_dir/.autorig-thumbnails``
     names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (mixamo: biped only;
                        an asset with other joints fails)
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 
-    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4) or
-    ``ClusterError`` (1) for problems that stop the whole batch, all before any rigging; a failing asset
-    only gets status ``failed``.
+    Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4),
+    ``ClusterError`` (1) or ``AutorigError`` (1: ``html`` without matplotlib) for problems that stop the whole
+    batch, all before any rigging; a failing asset only gets status ``failed``.
     """
     from .exchange import FORMATS
     from .pipeline import RigOptions, SkinOptions
@@ -259,9 +284,13 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         raise InputError(f"{input_dir}: {'not a folder' if input_dir.exists() else 'no such folder'}")
     if output_dir.resolve() == input_dir.resolve():
         raise InputError(f"{output_dir}: the output folder must not be the input folder")
-    for path in (report, junit):
+    if html is None:
+        html = _html_setting(input_dir, output_dir)
+    if html is not None:
+        _require_thumbnails()
+    for path in (report, junit, html):
         if path is not None:
-            _check_writable(Path(path))
+            _check_writable(Path(path), output_dir)
     try:
         output_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -289,7 +318,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
 
     def finished(plan: _Plan, outcome: dict) -> None:
         nonlocal saved
-        results[plan.rel] = result = _store(plan, outcome, input_dir, output_dir, fmt, manifest)
+        results[plan.rel] = result = _store(plan, outcome, input_dir, output_dir, fmt, manifest,
+                                            thumbnails=html is not None)
         if on_result:
             on_result(result)
         if time.monotonic() - saved > _MANIFEST_INTERVAL:
@@ -310,7 +340,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         for plan in order:
             try:
                 yield plan, _Job(plan.rel, _input_files(input_dir / plan.rel), plan.template, plan.skeleton,
-                                 plan.options, fmt, names)
+                                 plan.options, fmt, names=names, thumbnails=html is not None)
             except InputError as e:  # unreadable, or gone since it was found
                 finished(plan, {"status": "failed", "remember": False, "error": str(e),
                                 "error_type": "InputError"})
@@ -325,10 +355,10 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         _write_manifest(manifest_path, manifest)
 
     result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start)
-    if report is not None:
-        write_json_report(result, report)
-    if junit is not None:
-        write_junit_report(result, junit)
+    for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
+        if path is not None:
+            _make_parent(Path(path))
+            write(result, path)
     return result
 
 
@@ -528,6 +558,11 @@ class _Configs:
                 chain.append((rel_folder, *config))
         return chain
 
+    def batch_settings(self) -> dict:
+        """The settings for the whole batch (``_BATCH_KEYS``) in the input folder's own config."""
+        config = self._config("")
+        return {key: config[1][key] for key in _BATCH_KEYS if config and key in config[1]}
+
     def options_for(self, rel: str, base: dict) -> dict:
         effective = dict(base)
         for rel_folder, _, settings in self._chain(rel):
@@ -567,7 +602,15 @@ class _Configs:
             raise ConfigError(f"{path}: {' '.join(str(e).split())}") from None
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: expected a table of settings")
-        settings = self._settings(data, path, allowed=(*_CONFIG_KEYS, "files"), where="")
+        settings = self._settings(data, path, allowed=(*_CONFIG_KEYS, *_BATCH_KEYS, "files"), where="")
+        for key in _BATCH_KEYS:
+            if key in data:
+                if path.parent != self.root:
+                    raise ConfigError(f"{path}: {key} is set for the whole batch, in the input folder's own "
+                                      f"{path.name}, not in a folder below it")
+                if not isinstance(data[key], str) or not data[key]:
+                    raise ConfigError(f"{path}: {key} must be a file name, not {data[key]!r}")
+                settings[key] = data[key]
         files = data.get("files", {})
         if not isinstance(files, dict):
             raise ConfigError(f"{path}: files: expected a table of glob = {{settings}}")
@@ -684,33 +727,44 @@ def _kept_result(plan: _Plan, entry: dict | None, output_dir: Path) -> AssetResu
         return None
     if entry.get("status") == "ok" and not (output_dir / plan.output).exists():
         return None
+    thumbnails = {view: rel for view, rel in (entry.get("thumbnails") or {}).items()
+                  if (output_dir / rel).is_file()}
     return AssetResult(input=plan.rel, output=plan.output, status="skipped", previous=entry.get("status"),
                        template=plan.label, up=plan.up, front=plan.front, error=entry.get("error"),
-                       error_type=entry.get("error_type"), confidence=entry.get("confidence"))
+                       error_type=entry.get("error_type"), confidence=entry.get("confidence"),
+                       confidence_parts=entry.get("confidence_parts") or {},
+                       previous_timings=entry.get("timings") or {}, thumbnails=thumbnails)
 
 
-def _store(plan: _Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict
-           ) -> AssetResult:
-    """Write a finished asset's output, remember its outcome when it would come out the same again, and
-    return its ``AssetResult``."""
+def _store(plan: _Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict,
+           thumbnails: bool = False) -> AssetResult:
+    """Write a finished asset's output (and with ``thumbnails`` its pictures), remember its outcome when it
+    would come out the same again, and return its ``AssetResult``."""
     result = AssetResult(input=plan.rel, output=plan.output, status=outcome["status"],
                          template=plan.label, up=plan.up, front=plan.front, error=outcome.get("error"),
                          error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
+                         confidence_parts=outcome.get("confidence_parts", {}),
                          seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}))
     out = output_dir / plan.output
+    _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
         try:
             _write_output(out, outcome["data"], fmt, input_dir / plan.rel)
+            if thumbnails:
+                result.thumbnails = _write_thumbnails(output_dir, plan.output, outcome.get("thumbnails", {}))
         except AutorigError as e:
             result.status, result.error, result.error_type = "failed", str(e), type(e).__name__
-            result.confidence = None
+            result.confidence, result.confidence_parts = None, {}
             outcome = {"remember": False}
     elif plan.rel in manifest and manifest[plan.rel].get("status") == "ok":
         _remove_output(out, fmt)
     if outcome.get("remember"):
         manifest[plan.rel] = {"key": plan.key, "output": plan.output, "status": result.status,
                               "error": result.error, "error_type": result.error_type,
-                              "confidence": result.confidence, "seconds": round(result.seconds, 3)}
+                              "confidence": result.confidence, "seconds": round(result.seconds, 3),
+                              "confidence_parts": result.confidence_parts,
+                              "timings": {stage: round(s, 4) for stage, s in result.timings.items()},
+                              "thumbnails": result.thumbnails}
     else:
         manifest.pop(plan.rel, None)
     return result
@@ -728,6 +782,29 @@ def _write_output(out: Path, data: bytes | dict[str, bytes], fmt: str, source: P
         write_folder_atomic(out, data)
     else:
         write_file_atomic(out, data)
+
+
+def _thumbnail_path(output: str, view: str) -> str:
+    """Where the ``view`` thumbnail of the asset whose output is ``output`` goes, relative to the output folder."""
+    return f"{THUMBNAILS_FOLDER}/{output}.{view}.webp"
+
+
+def _write_thumbnails(output_dir: Path, output: str, pictures: dict[str, bytes]) -> dict[str, str]:
+    """Write a worker's {view: WebP bytes}; returns {view: path relative to ``output_dir``}."""
+    from .exchange import write_file_atomic
+    written = {}
+    for view, data in pictures.items():
+        rel = _thumbnail_path(output, view)
+        _make_parent(output_dir / rel)
+        write_file_atomic(output_dir / rel, data)
+        written[view] = rel
+    return written
+
+
+def _remove_thumbnails(output_dir: Path, output: str) -> None:
+    for view in ("front", "side"):
+        with contextlib.suppress(OSError):
+            (output_dir / _thumbnail_path(output, view)).unlink()
 
 
 def _remove_output(out: Path, fmt: str) -> None:
@@ -777,9 +854,15 @@ def _rig_one(job: _Job) -> dict:
             out = write_rig(result, Path(scratch, "rig"), job.fmt)
             timings["write"] = time.perf_counter() - written
             data = {p.name: p.read_bytes() for p in sorted(out.iterdir())} if out.is_dir() else out.read_bytes()
+            pictures = {}
+            if job.thumbnails:
+                drawn = time.perf_counter()
+                pictures = _thumbnails_of(result)
+                timings["thumbnails"] = time.perf_counter() - drawn
             confidence = result.info.get("confidence")
-            return {"status": "ok", "remember": True, "data": data, "timings": timings,
+            return {"status": "ok", "remember": True, "data": data, "timings": timings, "thumbnails": pictures,
                     "confidence": None if confidence is None else float(confidence),
+                    "confidence_parts": dict(result.info.get("confidence_parts") or {}),
                     "seconds": time.perf_counter() - start}
         except AutorigError as e:
             error, error_type, remember = str(e), type(e).__name__, True
@@ -791,6 +874,16 @@ def _rig_one(job: _Job) -> dict:
             error = f"{job.name}: {error}"
         return {"status": "failed", "remember": remember, "error": error, "error_type": error_type,
                 "seconds": time.perf_counter() - start}
+
+
+def _thumbnails_of(rig) -> dict[str, bytes]:
+    """{view: WebP bytes} of ``rig``, or {} if they cannot be drawn (a cluster worker without matplotlib, or a
+    bug in the drawing): the rig itself is fine, so the asset is not failed for it; its card says so."""
+    try:
+        from .preview import render_thumbnails
+        return render_thumbnails(rig)
+    except Exception:
+        return {}
 
 
 def _run_locally(jobs: int, work: Iterator[tuple[_Plan, _Job]], finished) -> None:
@@ -902,14 +995,45 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
-def _check_writable(path: Path) -> None:
-    """Refuse a report path that cannot be written, before any slow work."""
+def _check_writable(path: Path, output_dir: Path) -> None:
+    """Refuse a report path that cannot be written, before any slow work. Folders inside ``output_dir`` that
+    do not exist yet are fine: the batch makes them (``rigged/report.json`` before ``rigged/`` exists)."""
     if path.is_dir():
         raise OutputError(f"cannot write {path}: it is a directory")
-    if not path.parent.is_dir():
-        raise OutputError(f"cannot write {path}: the directory {path.parent} does not exist")
-    if not os.access(path.parent, os.W_OK):
-        raise OutputError(f"cannot write {path}: permission denied in {path.parent}")
+    made = Path(os.path.abspath(output_dir))  # with its missing parents
+    folder = Path(os.path.abspath(path.parent))
+    while not folder.is_dir() and (folder == made or made in folder.parents or folder in made.parents):
+        folder = folder.parent
+    if not folder.is_dir():
+        raise OutputError(f"cannot write {path}: the directory {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise OutputError(f"cannot write {path}: permission denied in {folder}")
+
+
+def _make_parent(path: Path) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"cannot write {path}: {e.strerror or e}") from None
+
+
+def _require_thumbnails() -> None:
+    """The review page's thumbnails need matplotlib: say so before any rigging (exit code 1, as for --preview)."""
+    import importlib.util
+    if importlib.util.find_spec("matplotlib") is None:
+        raise AutorigError("the review page (html) needs matplotlib for its pictures: pip install 'autorig[preview]'")
+
+
+def _html_setting(input_dir: Path, output_dir: Path) -> Path | None:
+    """The review page that ``input_dir``'s own config asks for (``html = "review.html"``, relative to the output
+    folder), else None."""
+    settings = _Configs(input_dir, _TemplateCache(), _SkeletonCache(input_dir)).batch_settings()
+    return output_dir / settings["html"] if "html" in settings else None
+
+
+def _write_review(result: BatchResult, path: str | os.PathLike) -> None:
+    from .batch_review import write_review
+    write_review(result, path)
 
 
 # --------------------------------------------------------------------------------------------- reports
@@ -921,7 +1045,8 @@ def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
          "summary": {"total": 4, "ok": 2, "failed": 1, "skipped": 1, "exit_code": 6},
          "assets": [{"input": "dogs/rex.obj", "output": "dogs/rex.rigged.glb", "status": "ok",
                      "previous": null, "template": "quadruped", "up": "y", "front": "z", "error": null,
-                     "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...}},
+                     "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...},
+                     "confidence_parts": {"fit": 0.9, ...}, "previous_timings": {}, "thumbnails": {}},
                     ...]}
     """
     from .exchange import write_file_atomic

@@ -9,6 +9,7 @@
     autorig hero.obj --preview              # also hero.rigged.png: front and side views (autorig.preview)
     autorig preview hero.rigged.glb         # the same picture of an existing rig
     autorig pose hero.rigged.glb -m walk.bvh -o walk.glb    # retarget a BVH motion (autorig.pose)
+    autorig learn rigs/*.glb -o studio.json                 # a template learned from rigged characters
 
 Start-up must stay fast (``autorig --help`` well under 0.3 s): at module level import only click, the standard
 library and ``autorig``'s own light modules; numpy, trimesh, libigl and the pipeline load inside the commands.
@@ -139,6 +140,7 @@ def cli():
       autorig batch DIR -o OUT  rig every mesh in a folder (see 'autorig batch --help')
       autorig preview RIG       draw a rig file to a PNG
       autorig pose RIG -m BVH   move a rig file with a BVH motion
+      autorig learn RIGS -o T   learn a template from rigged characters
     """
 
 
@@ -310,6 +312,48 @@ def templates_command():
                f"limb, for any creature (Wade & Parent 2002; see --voxels, --max-segments).")
 
 
+@cli.command("learn", epilog=EXIT_CODES, short_help="Learn a template from rigged characters.")
+@click.argument("rigs", nargs=-1, required=True, metavar="RIGS...")
+@click.option("-o", "--output", required=True, metavar="TEMPLATE.json", help="Where to write the template.")
+@click.option("-t", "--template", "base", metavar="NAME|PATH",
+              help="The template whose joint names corpus folders map to (their joints.json maps); without it "
+                   "the rigged glTF files' own joints and hierarchy are learned.")
+@click.option("--name", metavar="NAME", help="The learned template's name. [default: the base's, or the file's stem]")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
+@_common_options
+def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: str | None, quiet: bool):
+    """Learn a template from rigged characters: rest proportions, mirror pairs, feet, fat joints, tips and
+    helper joints, the embedding's penalty weights (max margin) and a calibrated confidence.
+
+    \b
+    RIGS are rigged .glb/.gltf files sharing one skeleton, or corpus folders (joints.json with a map to the
+    --template's joint names, mesh.obj, weights.npz), or folders of either.
+      autorig learn studio/*.glb -o studio.json
+      autorig learn ../shared/data/train --template quadruped -o quadruped.json
+    """
+    from .exchange import write_file_atomic
+    from .learn import learn_template
+    from .template import base_description, load_template, template_json
+
+    out = Path(output)
+    if out.suffix.lower() != ".json":
+        raise click.UsageError(f"the template is a .json file, not {out.name}")
+    if not out.parent.is_dir():
+        raise OutputError(f"cannot write {out}: the directory {out.parent} does not exist")
+    start = time.perf_counter()
+    base_template = load_template(base) if base else None
+    progress = None if quiet else (lambda line: click.echo(f"  {line}", err=True))
+    learned = learn_template(list(rigs), base=base_template, name=name or (None if base else out.stem),
+                             progress=progress)
+    description = (base_description(base) + " " if base else "") + \
+        f"Learned by autorig learn from {len(learned.examples)} rigged characters."
+    write_file_atomic(out, template_json(learned.template.to_dict(description)).encode())
+    if not quiet:
+        t = learned.template
+        click.echo(f"{t.name}: {len(t.names)} joints, {len(t.helpers)} helpers, from {len(learned.examples)} "
+                   f"examples in {time.perf_counter() - start:.1f} s -> {out}")
+
+
 # Axes of an existing rig file: the file does not record them, so no detection.
 RIG_AXES = [axis for axis in AXES if axis != "auto"]
 
@@ -455,6 +499,10 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--force", is_flag=True, help="Rig every asset, even those unchanged since the last run.")
 @click.option("--report", metavar="PATH", help="Write a JSON report here.")
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
+@click.option("--html", metavar="PATH",
+              help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
+                   "ones first (one offline file; needs matplotlib). Also: html = \"PATH\" in INPUT_DIR's "
+                   "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
@@ -462,7 +510,7 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
                   skeleton_scale: str | None, up: str, front: str, voxels: int, max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, names: str, quiet: bool):
+                  junit: str | None, html: str | None, names: str, quiet: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
     \b
@@ -505,7 +553,8 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
-                            junit=junit, names=names, on_start=progress.on_start, on_result=progress.on_result)
+                            junit=junit, html=html, names=names, on_start=progress.on_start,
+                            on_result=progress.on_result)
     finally:
         progress.close()
     if not quiet:

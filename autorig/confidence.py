@@ -15,9 +15,13 @@ symmetry   mirrored joints that are not mirror images: 1 / (1 + (mean mismatch /
 search     0.8 when the A* search ran out of budget and took its greedy embedding
 =========  =========================================================================================
 
-The confidence is their product. ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline: every good
-rig of the shared test characters and the mannequins scores above it, a cylinder or a limbless torso rigged
-as a biped below.
+Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
+carries a *calibrated* model instead (``ConfidenceModel``): a logistic regression, fitted on rigs of the
+examples whose true error is known, of the parts above and of how far the rig's proportions and directions
+are from the learned ones (``proportions``: mean squared z-score of the bones' log lengths against their
+spread over the examples; ``directions``: mean 1 - cos against the template's bones). Its output is the
+probability that the rig's worst joint is within ``GOOD_ERROR`` of the height, so below 0.5 means "probably
+wrong" and 0.5 or above "probably right". ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
 from __future__ import annotations
 
@@ -30,6 +34,8 @@ from .graph import SphereGraph
 from .template import Template
 
 STRICT_THRESHOLD = 0.5
+GOOD_ERROR = 0.15        # worst joint error (fraction of the height) below which a calibration rig counts as right
+FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "directions")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
 FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit part is 1/2
@@ -67,7 +73,78 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         "symmetry": 1.0 / (1.0 + (mismatch / 0.1) ** 2),
         "search": 1.0 if embedding.optimal else 0.8,
     }
-    return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
+    if template.confidence is None:
+        return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
+    model = ConfidenceModel.from_dict(template.confidence)
+    values = features(parts, per_bone, joints, template, model.bone_log_sigma)
+    parts.update(proportions=values["proportions"], directions=values["directions"])
+    return model.probability(values), {k: round(float(v), 3) for k, v in parts.items()}
+
+
+def features(parts: dict, per_bone: float, joints: np.ndarray, template: Template,
+             bone_log_sigma: np.ndarray) -> dict[str, float]:
+    """{feature: value} of ``FEATURES`` for a rig's ``joints`` [J, 3] (canonical frame) with confidence
+    ``parts``; ``bone_log_sigma`` [J] is the spread over the examples of each joint's incoming bone's log
+    length (entry 0, the root's, unused)."""
+    child = np.flatnonzero(template.parents >= 0)
+    parent = template.parents[child]
+    rig = joints[child] - joints[parent]
+    ref = template.positions[child] - template.positions[parent]
+    rig_length = np.maximum(np.linalg.norm(rig, axis=1), 1e-9)
+    ref_length = np.maximum(np.linalg.norm(ref, axis=1), 1e-9)
+    z = np.log(rig_length / ref_length) / np.maximum(bone_log_sigma[child], 0.05)
+    cos = np.einsum("ij,ij->i", rig, ref) / (rig_length * ref_length)
+    return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],
+            "inside": parts["inside"], "symmetry": parts["symmetry"], "search": parts["search"],
+            "proportions": float(np.mean(z ** 2)), "directions": float(np.mean(1.0 - cos))}
+
+
+class ConfidenceModel:
+    """A logistic regression of ``FEATURES`` (each transformed by ``_transform`` and standardised):
+    P(worst joint error <= GOOD_ERROR) = 1 / (1 + exp(-(coef . x + intercept)))."""
+
+    def __init__(self, coef, intercept, mean, scale, bone_log_sigma, record=None):
+        self.coef = np.asarray(coef, float)
+        self.intercept = float(intercept)
+        self.mean = np.asarray(mean, float)
+        self.scale = np.asarray(scale, float)
+        self.bone_log_sigma = np.asarray(bone_log_sigma, float)
+        self.record = record or {}
+
+    @staticmethod
+    def design(rows: list[dict]) -> np.ndarray:
+        """[N, F] the transformed features of ``rows`` (dicts of ``FEATURES``)."""
+        return np.array([[_transform(name, row[name]) for name in FEATURES] for row in rows], dtype=float)
+
+    def probability(self, row: dict) -> float:
+        x = (self.design([row])[0] - self.mean) / self.scale
+        return float(1.0 / (1.0 + np.exp(-(x @ self.coef + self.intercept))))
+
+    def to_dict(self) -> dict:
+        return {"kind": "logistic", "good_error": GOOD_ERROR, "features": list(FEATURES),
+                "coef": [round(float(v), 5) for v in self.coef], "intercept": round(self.intercept, 5),
+                "mean": [round(float(v), 5) for v in self.mean], "scale": [round(float(v), 5) for v in self.scale],
+                "bone_log_sigma": [round(float(v), 4) for v in self.bone_log_sigma], **self.record}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "ConfidenceModel":
+        from .errors import TemplateError
+        try:
+            if list(data["features"]) != list(FEATURES):
+                raise ValueError(f"features {data['features']} are not {list(FEATURES)}")
+            model = cls(data["coef"], data["intercept"], data["mean"], data["scale"], data["bone_log_sigma"])
+            if not (len(model.coef) == len(model.mean) == len(model.scale) == len(FEATURES)):
+                raise ValueError("coefficient counts differ")
+        except (KeyError, TypeError, ValueError) as e:
+            raise TemplateError(f"template confidence model: {e}") from None
+        return model
+
+
+def _transform(name: str, value: float) -> float:
+    """Parts in (0, 1] by their log (a product becomes a sum); the costs and deviations by log1p."""
+    if name in ("cost_per_bone", "proportions", "directions"):
+        return float(np.log1p(max(value, 0.0)))
+    return float(np.log(max(value, 1e-3)))
 
 
 def _count_distinct_ends(graph: SphereGraph, candidates: list[int], used: set[int]) -> int:

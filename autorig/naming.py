@@ -37,22 +37,23 @@ _FROM_MIXAMO = {name: joint for joint, name in MIXAMO.items()}
 def rename_joints(rig: Rig, scheme: str) -> Rig:
     """``rig`` with its joints named by ``scheme`` (one of ``NAME_SCHEMES``; "template" leaves it as it is).
 
-    Raises ``TemplateError`` when the rig's joints are not the biped template's, which is all Mixamo names.
+    Raises ``TemplateError`` when the rig lacks any of the biped template's joints, which are all Mixamo
+    names; joints beyond them (a learned template's helper joints) keep their own names.
     """
     check_names(rig.names, scheme)
     if scheme == "template":
         return rig
-    return replace(rig, names=[MIXAMO[name] for name in rig.names])
+    return replace(rig, names=[MIXAMO.get(name, name) for name in rig.names])
 
 
 def check_names(joint_names: list[str], scheme: str) -> None:
     """Raise ``TemplateError`` unless joints called ``joint_names`` can be named by ``scheme``."""
     if scheme not in NAME_SCHEMES:
         raise TemplateError(f"unknown joint names {scheme!r}: choose one of {', '.join(NAME_SCHEMES)}")
-    missing = [name for name in joint_names if name not in MIXAMO] if scheme == "mixamo" else []
+    missing = [name for name in MIXAMO if name not in joint_names] if scheme == "mixamo" else []
     if missing:
-        raise TemplateError(f"--names mixamo: Mixamo names the biped template's joints only, not "
-                            f"{', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}")
+        raise TemplateError(f"--names mixamo: Mixamo names the biped template's joints, and these joints are not "
+                            f"the biped's (no {', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''})")
 
 
 def template_names(names: list[str]) -> list[str]:

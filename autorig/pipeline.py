@@ -9,8 +9,9 @@
                                   discretization is carried into that frame (+y up, facing +z)
                -> embed           A* over placements of the template's reduced skeleton
                -> place_on_paths  every template joint along the embedded paths
-               -> refine          continuous optimisation of all joints
-               -> bone_heat       skin weights for every input vertex
+               -> refine          continuous optimisation of all joints, then the learned placement
+                                  (``autorig.placement``) of a learned template
+               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
                -> confidence      how much to trust the result
 
 ``skin`` is the same without the embedding, for the user's own skeleton (``autorig MESH --skeleton FILE``):
@@ -54,12 +55,10 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """
     from .attach import bone_heat
     from .confidence import rig_confidence
-    from .distance import distance_field
     from .embed import embed
-    from .graph import sphere_graph
-    from .medial import medial_samples, pack_spheres
     from .mesh import prepare
     from .orient import detect_orientation, reorient, working_axes
+    from .placement import learned_placement
     from .refine import place_on_paths, refine
     from .template import AUTO, Template, load_template
 
@@ -74,32 +73,48 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         return _rig_without_template(vertices, faces, name, look, options, stage, timings)
     with stage("prepare"):
         prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name, checked=True)
-    with stage("distance field"):
-        field = distance_field(*prepared.coarse())
-    with stage("medial spheres"):
-        spheres = pack_spheres(medial_samples(field), min_radius=field.finest)
-    with stage("sphere graph"):
-        graph = sphere_graph(field, spheres)
+    field, graph = discretize(prepared, stage)
     with stage("orientation"):
         frame = detect_orientation(prepared, field, graph, template, options.up, options.front)
         prepared, field, graph = reorient(prepared, field, graph, frame)
     with stage("embedding"):
         embedding = embed(graph, template)
     with stage("refinement"):
-        joints = refine(field, place_on_paths(graph, embedding, template), template)
+        joints = learned_placement(refine(field, place_on_paths(graph, embedding, template), template), template,
+                                   np.ptp(prepared.work_vertices, axis=0))
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
+    # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight.
+    names, parents, joints = template.with_helpers(joints)
+    weights = np.hstack([weights, np.zeros((len(weights), len(template.helpers)))])
 
     return Rig(
-        names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
+        names=names, parents=parents, joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded)})
+
+
+def discretize(prepared, stage=None):
+    """(distance field, sphere graph) of a prepared mesh (``autorig.mesh.prepare``), in its canonical frame:
+    the stages the embedding needs, shared by ``rig`` and the learner (``autorig.learn``)."""
+    from .distance import distance_field
+    from .graph import sphere_graph
+    from .medial import medial_samples, pack_spheres
+
+    stage = stage or _stage_timer({})
+    with stage("distance field"):
+        field = distance_field(*prepared.coarse())
+    with stage("medial spheres"):
+        spheres = pack_spheres(medial_samples(field), min_radius=field.finest)
+    with stage("sphere graph"):
+        graph = sphere_graph(field, spheres)
+    return field, graph
 
 
 @dataclass

@@ -362,6 +362,9 @@ def _quadruped(p: QuadrupedProportions) -> tuple[dict[str, np.ndarray], list]:
             f"back_{side}_ankle": ankle, f"back_{side}_paw": bpaw,
         })
         r_paw = P(0.034 * g ** 0.5, paw_r, 0.048 * g ** 0.5)
+        # The toe tips, just inside the front of each paw's pad, below the paw joint (the feet stand lowest).
+        toe = P(0, -0.3 * paw_r, 0.012 + 0.954 * r_paw[2] - 0.003)
+        joints.update({f"front_{side}_paw_end": fpaw + toe, f"back_{side}_paw_end": bpaw + toe})
         shapes += [
             # Shoulder blade: fills the trunk's side from the withers down to the point of the shoulder.
             _Cone(shoulder + P(-m * 0.02 * g, 0.1 * g, -0.06), shoulder, 0.05 * g, 0.055 * g),

@@ -6,17 +6,25 @@ A template is a JSON file (see ``templates/biped.json``)::
      "joints": [{"name": "hips", "parent": null, "position": [0, 0.47, 0]}, ...],
      "symmetry": [["left_hip", "right_hip"], ...],   # mirror pairs (x -> -x)
      "feet": ["left_toe_end", "right_toe_end"],      # joints that should touch the ground
-     "fat": ["hips", "chest"]}                       # joints that sit in the body's thickest parts
+     "fat": ["hips", "chest"],                       # joints that sit in the body's thickest parts
+     "penalty_weights": {"length": 1.0, ...},        # optional: the embedding's Γ (autorig.embed.penalties)
+     "helpers": [{"name": "ik_knee_L", "parent": "hips", "offset": [0.1, 0.3, 0.6]}],  # optional
+     "confidence": {...},                            # optional: a calibrated model (autorig.confidence)
+     "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
 
 Positions are in the canonical frame used throughout autorig: +y up, +z the direction the character faces,
 +x the character's own left; the feet at y = 0 and the whole figure one unit tall. Joints whose name ends in
 ``_end`` are tips (the crown of the head, the fingertips): they carry no bone of their own and exist so that the
 chain before them knows where the limb ends.
+
+Helper joints (IK targets, prop sockets) carry no weight and take no part in the embedding: each rides along at
+a fixed offset (template units, the canonical frame) from its parent joint, and is written with the rig.
+``autorig learn`` (``autorig.learn``) makes templates from rigged characters, with their Γ and confidence model.
 """
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
@@ -45,6 +53,15 @@ class ReducedSkeleton:
 
 
 @dataclass(frozen=True)
+class Helper:
+    """A weightless joint: ``name``, ``parent`` (index of a template joint) and ``offset`` [3] from it in
+    template units (the canonical frame, height 1)."""
+    name: str
+    parent: int
+    offset: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
 class Template:
     """A template skeleton.
 
@@ -55,6 +72,12 @@ class Template:
     symmetry   [(i, j)] mirror pairs of joint indices (i on the left, j on the right)
     feet       indices of the joints that should be lowest
     fat        indices of the joints that belong in the thickest parts of the body
+    penalty_weights  {penalty: weight} of the embedding (Γ); None for the hand-set ``embed.WEIGHTS``
+    helpers    weightless joints riding at fixed offsets from template joints (``Helper``)
+    confidence a calibrated confidence model (``autorig.confidence.ConfidenceModel.to_dict``), or None
+    learned_from  what ``autorig learn`` made the template from (kept for the record), or None
+    placement  {"alpha": [J]}: how far each joint is pulled towards the stretched template
+               (``autorig.placement``), or None
     """
     name: str
     names: tuple[str, ...]
@@ -63,6 +86,11 @@ class Template:
     symmetry: tuple[tuple[int, int], ...]
     feet: tuple[int, ...]
     fat: tuple[int, ...]
+    penalty_weights: dict | None = field(default=None, compare=False, hash=False)
+    helpers: tuple["Helper", ...] = ()
+    confidence: dict | None = field(default=None, compare=False, hash=False)
+    learned_from: dict | None = field(default=None, compare=False, hash=False)
+    placement: dict | None = field(default=None, compare=False, hash=False)
 
     @property
     def children(self) -> list[list[int]]:
@@ -81,6 +109,40 @@ class Template:
 
     def is_tip(self, j: int) -> bool:
         return self.names[j].endswith("_end")
+
+    def with_helpers(self, joints: np.ndarray) -> tuple[list[str], np.ndarray, np.ndarray]:
+        """(names [J + H], parents [J + H], positions [J + H, 3]): ``joints`` [J, 3] (canonical frame) with
+        the helper joints appended, each at its offset from its parent."""
+        names = list(self.names) + [h.name for h in self.helpers]
+        parents = np.concatenate([self.parents, np.array([h.parent for h in self.helpers], dtype=np.int64)])
+        extra = np.array([joints[h.parent] + np.asarray(h.offset) for h in self.helpers]).reshape(-1, 3)
+        return names, parents.astype(np.int64), np.vstack([joints, extra])
+
+    def to_dict(self, description: str = "") -> dict:
+        """The template as its JSON file holds it (``template_from_dict`` reads it back)."""
+        data = {"name": self.name}
+        if description:
+            data["description"] = description
+        data["frame"] = "x = the character's left, y = up, z = the way it faces; feet at y = 0; 1 unit tall"
+        data["joints"] = [{"name": n, "parent": self.names[p] if p >= 0 else None,
+                           "position": [round(float(v), 4) for v in self.positions[j]]}
+                          for j, (n, p) in enumerate(zip(self.names, self.parents))]
+        data["symmetry"] = [[self.names[i], self.names[j]] for i, j in self.symmetry]
+        data["feet"] = [self.names[j] for j in self.feet]
+        data["fat"] = [self.names[j] for j in self.fat]
+        if self.penalty_weights is not None:
+            data["penalty_weights"] = {k: round(float(v), 5) for k, v in self.penalty_weights.items()}
+        if self.helpers:
+            data["helpers"] = [{"name": h.name, "parent": self.names[h.parent],
+                                "offset": [round(float(v), 4) for v in h.offset]} for h in self.helpers]
+        if self.placement is not None:
+            data["placement"] = {"alpha": [round(float(a), 4) for a in self.placement["alpha"]],
+                                 "extent": [round(float(e), 4) for e in self.placement["extent"]]}
+        if self.confidence is not None:
+            data["confidence"] = self.confidence
+        if self.learned_from is not None:
+            data["learned_from"] = self.learned_from
+        return data
 
     def reduced(self) -> ReducedSkeleton:
         """Collapse every joint with exactly one child (other than the root) into the chain through it."""
@@ -102,6 +164,32 @@ class Template:
             seg = np.diff(self.positions[chain], axis=0)
             lengths.append(float(np.linalg.norm(seg, axis=1).sum()))
         return ReducedSkeleton(np.array(keep), np.array(parents), chains, np.array(lengths))
+
+
+def base_description(name_or_path: str | Path) -> str:
+    """The description in a template file (a built-in's by name), without any "Learned ..." sentence."""
+    path = Path(str(name_or_path))
+    try:
+        text = path.read_text() if path.suffix == ".json" else _builtin_folder().joinpath(f"{path}.json").read_text()
+        description = str(json.loads(text).get("description", ""))
+    except (OSError, ValueError):
+        return ""
+    return description.split(" Learned by autorig learn")[0]
+
+
+def template_json(data: dict) -> str:
+    """A template's JSON text as the built-in files are laid out: one joint, pair or helper per line."""
+    import json
+    lines = ["{"]
+    items = list(data.items())
+    for n, (key, value) in enumerate(items):
+        comma = "," if n < len(items) - 1 else ""
+        if key in ("joints", "helpers", "symmetry") and isinstance(value, list) and value:
+            rows = [f"  {json.dumps(v)}" for v in value]
+            lines.append(f" {json.dumps(key)}: [\n" + ",\n".join(rows) + f"\n ]{comma}")
+        else:
+            lines.append(f" {json.dumps(key)}: {json.dumps(value)}{comma}")
+    return "\n".join(lines) + "\n}\n"
 
 
 def _builtin_folder():
@@ -211,6 +299,35 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         unknown = [n for n in indices(key) if n not in index]
         if unknown:
             raise bad(f'"{key}" names unknown joints {unknown}')
+    penalty_weights = _penalty_weights(data.get("penalty_weights"), bad)
+    helpers = []
+    for k, h in enumerate(indices("helpers")):
+        if not isinstance(h, dict) or not isinstance(h.get("name"), str) or h.get("parent") not in index:
+            raise bad(f"helper #{k} needs a name and the name of a template joint as its parent")
+        try:
+            offset = tuple(float(v) for v in h.get("offset"))
+        except (TypeError, ValueError):
+            offset = ()
+        if len(offset) != 3 or not np.all(np.isfinite(offset)):
+            raise bad(f"helper {h['name']!r}: offset must be three finite numbers")
+        if h["name"] in index or any(h["name"] == other.name for other in helpers):
+            raise bad(f"helper {h['name']!r} has the name of another joint")
+        helpers.append(Helper(h["name"], index[h["parent"]], offset))
+    confidence = data.get("confidence")
+    if confidence is not None and not isinstance(confidence, dict):
+        raise bad('"confidence" must be an object')
+    placement = data.get("placement")
+    if placement is not None:
+        alpha = placement.get("alpha") if isinstance(placement, dict) else None
+        extent = placement.get("extent") if isinstance(placement, dict) else None
+        if (not isinstance(alpha, list) or len(alpha) != len(names)
+                or not all(isinstance(a, (int, float)) and 0 <= a <= 1 for a in alpha)
+                or not isinstance(extent, list) or len(extent) != 3
+                or not all(isinstance(e, (int, float)) and e > 0 for e in extent)):
+            raise bad(f'"placement" needs "alpha": {len(names)} numbers in [0, 1], one per joint, and '
+                      f'"extent": three positive numbers')
+        # alpha is listed in the file's joint order; the template's is parents-first.
+        placement = {"alpha": [float(alpha[old[n]]) for n in order], "extent": [float(e) for e in extent]}
     return Template(
         name=str(data.get("name", default_name)),
         names=tuple(order),
@@ -219,4 +336,28 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         symmetry=tuple(symmetry),
         feet=tuple(index[n] for n in data.get("feet", [])),
         fat=tuple(index[n] for n in data.get("fat", [])),
+        penalty_weights=penalty_weights,
+        helpers=tuple(helpers),
+        confidence=confidence,
+        learned_from=data.get("learned_from"),
+        placement=placement,
     )
+
+
+def _penalty_weights(value, bad) -> dict | None:
+    """A template's Γ, checked: known penalty names, finite non-negative weights; missing ones keep the
+    hand-set default (``autorig.embed.penalties.WEIGHTS``)."""
+    if value is None:
+        return None
+    from .embed.penalties import WEIGHTS
+    if not isinstance(value, dict):
+        raise bad('"penalty_weights" must be an object {penalty: weight}')
+    unknown = sorted(set(value) - set(WEIGHTS))
+    if unknown:
+        raise bad(f'"penalty_weights" names unknown penalties {unknown}; known: {", ".join(WEIGHTS)}')
+    out = dict(WEIGHTS)
+    for k, v in value.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
+            raise bad(f'penalty weight {k!r} must be a finite number >= 0')
+        out[k] = float(v)
+    return out

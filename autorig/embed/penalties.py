@@ -2,8 +2,9 @@
 
 An embedding puts every joint of the reduced skeleton on a sphere of the graph; a reduced bone runs along the
 shortest graph path between its two spheres. Its cost is a weighted sum of the penalties below (all >= 0,
-dimensionless). Baran & Popović learn their weights from examples; these are set by hand on the project's own
-mannequins and checked on the shared real characters (see benchmarks/accuracy.py).
+dimensionless). Baran & Popović learn their weights Γ from examples, and so does ``autorig learn``
+(``autorig.learn.gamma``): a template's ``penalty_weights`` replace the hand-set defaults below, which were set
+on the project's own mannequins and are what a template without learned weights uses.
 
 =============  ======  ========================================================================================
 penalty        weight  what it measures
@@ -23,6 +24,9 @@ extremity      hard    leaf joints (tips) only at graph extremities (local maxim
                        graph's centre that stand out by 3% of the height)
 fat            1.0     1 - radius / largest radius for joints the template calls fat (hips, chest), which
                        must moreover sit on spheres at least a quarter as wide as the largest
+height         0       the root's and branch joints' height against the template's, squared, per 10% of the
+                       height: a quadruped's chest sits high in the shoulders, not in the belly's thickest
+                       sphere (off in the hand-set weights; ``autorig learn`` weighs it)
 distinct       hard    no two joints on one sphere
 =============  ======  ========================================================================================
 """
@@ -44,7 +48,9 @@ WEIGHTS = {
     "backtrack": 1.5,
     "overlap": 3.0,
     "fat": 1.0,
+    "height": 0.0,
 }
+HEIGHT_UNIT = 0.1         # height (fraction of the figure) that costs one unit of the height penalty
 FEET_UNIT = 0.05          # height (fraction of the figure) that costs one unit of the feet penalty
 SHARED_FRACTION = 0.4     # paths may share spheres up to this fraction of the bone's length from its parent
 PROMINENCE = 0.08         # how far (height units) a limb's end must stand out to count as an extremity
@@ -68,6 +74,9 @@ class EmbeddingProblem:
     vectors     [K, 3] template vector of each reduced bone (parent to joint), zero for the root
     is_foot     [K] bool
     shared_ok   [K] how far (path length from the parent) a reduced bone may share spheres with other paths
+    weights     {penalty: weight} (Γ): the template's learned ones, else ``WEIGHTS``
+    fat         [K] bool, the joints the template calls fat
+    heights     [K] template height of each reduced joint
     """
     graph: SphereGraph
     reduced: ReducedSkeleton
@@ -79,6 +88,9 @@ class EmbeddingProblem:
     vectors: np.ndarray
     is_foot: np.ndarray
     shared_ok: np.ndarray
+    weights: dict
+    fat: np.ndarray
+    heights: np.ndarray
 
 
 def graph_extremities(graph: SphereGraph, min_prominence: float = PROMINENCE) -> np.ndarray:
@@ -138,6 +150,7 @@ def _merges(from_centre: np.ndarray, neighbours: list[np.ndarray]) -> tuple[np.n
 
 
 def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
+    weights = dict(template.penalty_weights or WEIGHTS)
     reduced = template.reduced()
     K, S = len(reduced.joints), len(graph.radii)
     kids = [[] for _ in range(K)]
@@ -156,7 +169,7 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
         raise RigFailedError(f"the {template.name} template needs {leaves} limb ends (head, hands, feet, "
                              f"tail...) but this shape has only {len(ends)}: is it the right template?")
     thick = np.flatnonzero(graph.radii >= FAT_FRACTION * graph.radii.max())
-    thinness = WEIGHTS["fat"] * (1.0 - graph.radii / graph.radii.max())
+    thinness = weights["fat"] * (1.0 - graph.radii / graph.radii.max())
     everything = np.arange(S)
     candidates = []
     for k, j in enumerate(reduced.joints):
@@ -170,7 +183,7 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     feet = set(template.feet)
     is_foot = np.array([j in feet for j in reduced.joints])
     lowest = graph.centers[:, 1].min()
-    feet_cost = WEIGHTS["feet"] * (graph.centers[:, 1] - lowest) / FEET_UNIT
+    feet_cost = weights["feet"] * feet_height(graph)
 
     tpos = template.positions[reduced.joints]
     vectors = np.zeros((K, 3))
@@ -186,19 +199,23 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
         offset = C[cols][None, :, :] - C[rows][:, None, :]
         norm = np.linalg.norm(offset, axis=2)
         with np.errstate(divide="ignore", invalid="ignore"):
-            cost = WEIGHTS["length"] * (np.log(np.maximum(path, 1e-9)) - np.log(reduced.lengths[k])) ** 2
+            cost = weights["length"] * (np.log(np.maximum(path, 1e-9)) - np.log(reduced.lengths[k])) ** 2
             cos = np.where(norm > 0, (offset @ (vectors[k] / np.linalg.norm(vectors[k]))) / norm, -1.0)
-        cost += WEIGHTS["direction"] * (1.0 - cos)
+        cost += weights["direction"] * (1.0 - cos)
         if is_foot[k]:
             cost += feet_cost[cols][None, :]
         if reduced.joints[k] in fat:
             cost += thinness[cols][None, :]
+        if kids[k] and weights["height"] > 0:
+            cost += weights["height"] * height_offset(graph, tpos[k])[cols][None, :]
         cost[~np.isfinite(path)] = np.inf
         bone_cost[k] = cost
         bone_row[k] = np.full(S, -1, dtype=np.int64)
         bone_row[k][rows] = np.arange(len(rows))
     root_cost = np.full(S, np.inf)
     root_cost[candidates[0]] = thinness[candidates[0]] if reduced.joints[0] in fat else 0.0
+    if weights["height"] > 0:
+        root_cost[candidates[0]] += weights["height"] * height_offset(graph, tpos[0])[candidates[0]]
 
     names = [template.names[j] for j in reduced.joints]
     mirror_full = template.mirror_of()
@@ -211,11 +228,68 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
                                    for c in reduced.chains[1:]])
     shared_ok = np.maximum(first_bone, SHARED_FRACTION * reduced.lengths)
     return EmbeddingProblem(graph, reduced, candidates, bone_cost, bone_row, root_cost, mirror, vectors,
-                            is_foot, shared_ok)
+                            is_foot, shared_ok, weights, np.array([j in fat for j in reduced.joints]), tpos[:, 1].copy())
+
+
+def height_offset(graph: SphereGraph, position: np.ndarray) -> np.ndarray:
+    """[S] the height penalty of a joint whose template position is ``position`` [3] on each sphere."""
+    return ((graph.centers[:, 1] - position[1]) / HEIGHT_UNIT) ** 2
+
+
+def feet_height(graph: SphereGraph) -> np.ndarray:
+    """[S] the feet penalty of a foot joint on each sphere: its height above the lowest, per FEET_UNIT."""
+    return (graph.centers[:, 1] - graph.centers[:, 1].min()) / FEET_UNIT
+
+
+def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
+    """{penalty: unweighted value} of the complete embedding placing reduced joint k on ``spheres[k]``:
+    the cost the search gives it is the sum of ``problem.weights[p] * value`` (the learner's features)."""
+    spheres = [int(s) for s in spheres]
+    graph, reduced = problem.graph, problem.reduced
+    C, D, parents = graph.centers, graph.distances, reduced.parents
+    thin = 1.0 - graph.radii / graph.radii.max()
+    feet = feet_height(graph)
+    unit = {name: 1.0 for name in problem.weights}
+    terms = dict.fromkeys(problem.weights, 0.0)
+    terms["fat"] += float(thin[spheres[0]]) if _is_fat(problem, 0) else 0.0
+    has_children = np.zeros(len(spheres), dtype=bool)
+    has_children[parents[parents >= 0]] = True
+    template_heights = problem.heights
+    for k in np.flatnonzero(has_children):
+        terms["height"] += float(((C[spheres[k], 1] - template_heights[k]) / HEIGHT_UNIT) ** 2)
+    used = np.zeros(len(graph.radii), dtype=bool)
+    for k in range(1, len(spheres)):
+        p, s, u = parents[k], spheres[k], spheres[parents[k]]
+        offset = C[s] - C[u]
+        direction = problem.vectors[k] / np.linalg.norm(problem.vectors[k])
+        norm = float(np.linalg.norm(offset))
+        terms["length"] += float((np.log(max(D[u, s], 1e-9)) - np.log(reduced.lengths[k])) ** 2)
+        terms["direction"] += 1.0 - (float(offset @ direction) / norm if norm > 0 else -1.0)
+        if problem.is_foot[k]:
+            terms["feet"] += float(feet[s])
+        if _is_fat(problem, k):
+            terms["fat"] += float(thin[s])
+        target = np.array([s])
+        if parents[p] >= 0:
+            terms["backtrack"] += float(backtrack_penalty(problem, k, spheres[parents[p]], u, target, unit)[0])
+        mirror = problem.mirror[k]
+        if 0 <= mirror < k:
+            terms["symmetry"] += float(symmetry_penalty(problem, k, u, target, spheres[mirror],
+                                                        spheres[parents[mirror]], unit)[0])
+        if k > 1:
+            used[graph.path(spheres[parents[k - 1]], spheres[k - 1])] = True
+            here = used & (D[u] > problem.shared_ok[k])
+            terms["overlap"] += float(overlap_penalty(problem, k, u, here, target, unit)[0])
+    return terms
+
+
+def _is_fat(problem: EmbeddingProblem, k: int) -> bool:
+    """Whether reduced joint k is one the template calls fat (its candidates are the thick spheres only)."""
+    return bool(problem.fat[k])
 
 
 def symmetry_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, spheres: np.ndarray,
-                     mirror_sphere: int, mirror_parent_sphere: int) -> np.ndarray:
+                     mirror_sphere: int, mirror_parent_sphere: int, weights: dict | None = None) -> np.ndarray:
     """[N] penalty for placing joint k on each of ``spheres`` when its mirror image is already placed."""
     C, D = problem.graph.centers, problem.graph.distances
     flip = np.array([-1.0, 1.0, 1.0])
@@ -224,15 +298,15 @@ def symmetry_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, sphe
     length = problem.reduced.lengths[k]
     shape = np.linalg.norm(mine - theirs, axis=1) / length
     lengths = np.abs(D[parent_sphere, spheres] - D[mirror_parent_sphere, mirror_sphere]) / length
-    return WEIGHTS["symmetry"] * (shape + lengths)
+    return (weights or problem.weights)["symmetry"] * (shape + lengths)
 
 
 def backtrack_penalty(problem: EmbeddingProblem, k: int, grandparent_sphere: int, parent_sphere: int,
-                      spheres: np.ndarray) -> np.ndarray:
+                      spheres: np.ndarray, weights: dict | None = None) -> np.ndarray:
     """[N] penalty for a bone whose path turns back toward the grandparent joint."""
     D = problem.graph.distances
     detour = D[grandparent_sphere, parent_sphere] + D[parent_sphere, spheres] - D[grandparent_sphere, spheres]
-    return WEIGHTS["backtrack"] * np.maximum(detour, 0.0) / problem.reduced.lengths[k]
+    return (weights or problem.weights)["backtrack"] * np.maximum(detour, 0.0) / problem.reduced.lengths[k]
 
 
 def shared_length(graph: SphereGraph, source: int, used: np.ndarray, spheres: np.ndarray) -> np.ndarray:
@@ -255,8 +329,8 @@ def shared_length(graph: SphereGraph, source: int, used: np.ndarray, spheres: np
 
 
 def overlap_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, used: np.ndarray,
-                    spheres: np.ndarray) -> np.ndarray:
+                    spheres: np.ndarray, weights: dict | None = None) -> np.ndarray:
     """[N] penalty: length of the path parent -> sphere that runs over ``used`` spheres ([S] bool, the
     spheres on the paths already placed, the parent's own sphere excluded)."""
     shared = shared_length(problem.graph, parent_sphere, used, spheres)
-    return WEIGHTS["overlap"] * shared / problem.reduced.lengths[k]
+    return (weights or problem.weights)["overlap"] * shared / problem.reduced.lengths[k]

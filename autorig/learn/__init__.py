@@ -1,0 +1,190 @@
+"""``autorig learn``: templates learned from rigged characters.
+
+    examples  -> read        corpus folders (a map to the base template's joints) or rigged glTF files
+              -> skeleton    the base template's joints, or the examples' own (weighted joints, tips, helpers)
+              -> positions   each example in the template frame; the mean, made symmetric
+              -> features    mirror pairs, feet, fat joints (``proportions``)
+              -> discretize  each example's sphere graph, in its own frame and facing the wrong ways
+              -> Γ           max-margin penalty weights (``gamma``)
+              -> confidence  a calibrated model, on rigs of held-out folds (``calibrate``)
+
+The result is a ``Template`` that ``--template`` takes once written with ``Template.to_dict``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..confidence import GOOD_ERROR
+from ..template import Helper, Template
+from .examples import Example, read_examples
+from .proportions import (example_positions, fat_joints, feet, mirror_pairs, skeleton_of_base,
+                          skeleton_of_examples, symmetrized)
+
+FOLDS = 3   # calibration folds (whole groups of examples held out together)
+
+
+@dataclass
+class Learned:
+    """template: the learned Template; examples: their names; spread [J] RMS distance of the examples' joints
+    from the template's (template units); gamma: the max-margin rounds; confidence: the model's record."""
+    template: Template
+    examples: list[str]
+    spread: np.ndarray
+    gamma: list
+    confidence: dict
+
+
+def learn_template(paths, base: Template | None = None, name: str | None = None, progress=None,
+                   learn_gamma: bool = True, calibrate: bool = True) -> Learned:
+    """A template learned from the rigged characters under ``paths`` (``examples.expand``).
+
+    base: the template whose joint names corpus folders map to (its joints are the learned template's);
+        None for rigged glTF files, whose own joint names and hierarchy are used.
+    progress: a callable taking one line of text, or None.
+    """
+    say = progress or (lambda _line: None)
+    examples = read_examples(paths, base)
+    say(f"{len(examples)} examples")
+    skeleton = skeleton_of_base(base) if base is not None else skeleton_of_examples(examples)
+    per_example = np.array([example_positions(e, skeleton, base) for e in examples])
+    template = _template(skeleton, per_example, examples, base, name)
+    settings, fields = _settings(examples, template, per_example, say)
+    template = replace(template, fat=tuple(_fat(template, per_example, fields)))
+    gamma_rounds = []
+    if learn_gamma:
+        from .gamma import learn_weights
+        report = learn_weights(_reduced_settings(settings, template), template, progress=say)
+        template = replace(template, penalty_weights=report.weights)
+        gamma_rounds = report.rounds
+    confidence = {}
+    if calibrate:
+        template, confidence = _calibrated(template, skeleton, examples, per_example, settings, base, name, say)
+    spread = np.sqrt(np.mean(np.sum((per_example - template.positions) ** 2, axis=2), axis=0))
+    record = {"examples": [e.name for e in examples], "base": base.name if base is not None else None,
+              "penalty_rounds": gamma_rounds,
+              "mean_spread": round(float(np.mean(spread)), 4), "confidence": confidence}
+    template = replace(template, learned_from=record)
+    return Learned(template, [e.name for e in examples], spread, gamma_rounds, confidence)
+
+
+def _template(skeleton, per_example: np.ndarray, examples: list[Example], base: Template | None,
+              name: str | None) -> Template:
+    """The mean skeleton, symmetric, with its mirror pairs, feet and helpers (fat joints come later)."""
+    mean = per_example.mean(axis=0)
+    pairs = (list(base.symmetry) if base is not None else mirror_pairs(mean, skeleton.parents))
+    positions = symmetrized(mean, pairs)
+    helpers = []
+    for helper, parent in skeleton.helpers:
+        offsets = [e.canonical_joints()[e.key_of[helper]] - p[parent] for e, p in zip(examples, per_example)]
+        helpers.append(Helper(helper, parent, tuple(float(v) for v in np.mean(offsets, axis=0))))
+    foot = list(base.feet) if base is not None else feet(positions, skeleton.parents)
+    return Template(name=name or (base.name if base is not None else "learned"), names=tuple(skeleton.names),
+                    parents=skeleton.parents.copy(), positions=positions, symmetry=tuple(pairs),
+                    feet=tuple(foot), fat=tuple(base.fat) if base is not None else (),
+                    penalty_weights=dict(base.penalty_weights) if base is not None and base.penalty_weights
+                    else None, helpers=tuple(helpers))
+
+
+def _settings(examples, template, per_example, say):
+    """The learner's view of every example: (settings for Γ, fields [N]) with the full truth [J, 3] in each
+    setting (``_reduced_settings`` picks the reduced joints)."""
+    from ..mesh import check_mesh, prepare
+    from ..orient import _handicap
+    from ..pipeline import discretize
+    from .gamma import Setting
+    settings, fields = [], []
+    for n, (example, truth) in enumerate(zip(examples, per_example)):
+        V, F = check_mesh(example.vertices, example.faces, example.name)
+        prepared = prepare(V, F, example.up, example.front, name=example.name, checked=True)
+        field, graph = discretize(prepared)
+        fields.append(field)
+        for up, front in _frames(example.up, example.front):
+            change = prepared.frame_change(up, front)
+            extent = np.ptp(change.apply(prepared.work_vertices), axis=0)
+            if (up, front) == (example.up, example.front):
+                settings.append(Setting(graph, truth, _handicap(up, front), True, n, field, "own", extent))
+                continue
+            settings.append(Setting(graph.moved(change.apply(graph.centers), change.scale), change.apply(truth),
+                                    _handicap(up, front), False, n,
+                                    field.moved(change.rotation, change.offset, change.scale),
+                                    "back" if front[-1] == example.front[-1] else "side", extent))
+        say(f"discretized {example.name} ({len(graph.radii)} spheres)")
+    return settings, fields
+
+
+def _frames(up: str, front: str) -> list[tuple[str, str]]:
+    """The example's own frame first, then the frames with the same up that face the wrong way."""
+    axes = ("x", "y", "z")
+    left = next(a for a in axes if a not in (up[-1], front[-1]))
+    back = front[1:] if front.startswith("-") else "-" + front
+    return [(up, front), (up, back), (up, left), (up, "-" + left)]
+
+
+def _reduced_settings(settings, template):
+    joints = template.reduced().joints
+    return [replace(s, truth=s.truth[joints]) for s in settings]
+
+
+def _fat(template: Template, per_example: np.ndarray, fields) -> list[int]:
+    """Fat joints from the examples' own depths (``proportions.fat_joints``); the template's if it has some."""
+    depths = np.mean([np.maximum(f.depth(p), 0.0) for f, p in zip(fields, per_example)], axis=0)
+    tips = np.array([template.is_tip(j) for j in range(len(template.names))])
+    learned = fat_joints(depths, template.parents, tips)
+    return list(template.fat) or learned
+
+
+def group_of(example: Example) -> str:
+    """Examples that share a body mesh (the corpus's first part file), else each on its own."""
+    parts = example.meta.get("parts") or []
+    return str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else example.name
+
+
+def _calibrated(template, skeleton, examples, per_example, settings, base, name, say):
+    """``template`` with its learned placement and a confidence model, both fitted on rigs of held-out folds
+    (``placement.fit_alpha``, ``calibrate``)."""
+    from ..placement import fit_alpha
+    from .calibrate import fit, rig_sample, sample_row
+    groups = sorted({group_of(e) for e in examples})
+    fold_of_group = {g: k % FOLDS for k, g in enumerate(groups)}
+    folds = np.array([fold_of_group[group_of(e)] for e in examples])
+    log_lengths = _log_lengths(per_example, template.parents)
+    sigma = np.concatenate([[0.0], log_lengths.std(axis=0)[1:]])
+    scored = [np.array([skeleton.source[j] is not None and skeleton.source[j] in e.key_of
+                        and not template.is_tip(j) for j in range(len(template.names))]) for e in examples]
+    samples = []
+    for fold in sorted(set(folds.tolist())):
+        train = folds != fold
+        if train.sum() < 2:
+            continue
+        held_out = replace(template, positions=symmetrized(per_example[train].mean(axis=0), list(template.symmetry)))
+        for s in settings:
+            # The example's own frame and the one facing backwards: rigs that are right and rigs that are not.
+            if folds[s.example] != fold or not (s.true_frame or s.frame == "back"):
+                continue
+            sample = rig_sample(s.field, s.graph, held_out, s.truth, scored[s.example], s.true_frame, s.extent)
+            if sample is not None:
+                samples.append(sample)
+        say(f"calibration fold {fold + 1}/{len(set(folds.tolist()))}: {len(samples)} rigs")
+    own = [s for s in samples if s.own_frame]
+    if own:
+        mean_extent = np.mean([s.extent for s in settings if s.true_frame], axis=0)
+        alpha = fit_alpha([s.refined for s in own], [s.truth for s in own], [s.extent for s in own], template,
+                          mean_extent, [s.scored.astype(float) for s in own])
+        template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
+    rows = [sample_row(s, template, sigma) for s in samples]
+    worst = np.array([w for _, w in rows])
+    if len(rows) < 2:
+        return template, {"skipped": "too few calibration rigs"}
+    model = fit([r for r, _ in rows], worst, sigma)
+    return replace(template, confidence=model.to_dict()), model.record
+
+
+def _log_lengths(per_example: np.ndarray, parents: np.ndarray) -> np.ndarray:
+    """[N, J] log length of each joint's incoming bone in each example (0 for the root)."""
+    child = np.flatnonzero(parents >= 0)
+    out = np.zeros(per_example.shape[:2])
+    out[:, child] = np.log(np.maximum(np.linalg.norm(per_example[:, child] - per_example[:, parents[child]],
+                                                     axis=2), 1e-6))
+    return out

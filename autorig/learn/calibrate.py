@@ -1,0 +1,100 @@
+"""The confidence model of a learned template, calibrated on rigs of the examples whose error is known.
+
+The rigs are made as ``autorig.rig`` makes them, minus the skin weights, with templates that did not see the
+example (its fold of the examples left out of the proportions), in the example's own frame and facing the
+wrong way, so that the model sees rigs that are right and rigs that are wrong. Each is labelled by its worst
+joint error over the joints the example has; the model is a logistic regression of ``confidence.FEATURES``
+for P(worst error <= GOOD_ERROR), fitted with scipy (L-BFGS-B, a small L2 pull on the coefficients).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..confidence import FEATURES, GOOD_ERROR, ConfidenceModel, features, rig_confidence
+
+L2 = 0.05
+
+
+@dataclass
+class Sample:
+    """A calibration rig: the embedding, its refined joints [J, 3] (before the learned placement), the
+    confidence parts, and the truth [J, 3] with the joints that count (``scored`` [J] bool)."""
+    field: object
+    graph: object
+    embedding: object
+    refined: np.ndarray
+    truth: np.ndarray
+    scored: np.ndarray
+    own_frame: bool
+    extent: np.ndarray
+
+
+def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, own_frame: bool,
+               extent: np.ndarray) -> Sample | None:
+    """``template`` embedded and refined on (field, graph) as ``autorig.rig`` does it; None if it does not fit."""
+    from ..embed.penalties import build_problem
+    from ..embed.search import search
+    from ..errors import RigFailedError
+    from ..refine import place_on_paths, refine
+    from .gamma import SEARCH_BUDGET
+    try:
+        embedding = search(build_problem(graph, template), max_expansions=SEARCH_BUDGET)
+    except RigFailedError:
+        return None
+    joints = refine(field, place_on_paths(graph, embedding, template), template)
+    return Sample(field, graph, embedding, joints, truth, scored, own_frame, extent)
+
+
+def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[dict, float]:
+    """(feature row, worst joint error) of a calibration rig after ``template``'s learned placement."""
+    from ..placement import learned_placement
+    joints = learned_placement(sample.refined, template, sample.extent)
+    _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
+    per_bone = sample.embedding.cost / max(len(template.reduced().joints) - 1, 1)
+    row = features(parts, per_bone, joints, template, bone_log_sigma)
+    worst = float(np.max(np.linalg.norm(joints[sample.scored] - sample.truth[sample.scored], axis=1)))
+    return row, worst
+
+
+def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> ConfidenceModel:
+    """The logistic model of P(worst <= GOOD_ERROR) given the feature ``rows``."""
+    from scipy.optimize import minimize
+    X = ConfidenceModel.design(rows)
+    mean, scale = X.mean(axis=0), X.std(axis=0)
+    scale[scale < 1e-6] = 1.0
+    Z = (X - mean) / scale
+    y = (np.asarray(worst) <= GOOD_ERROR).astype(float)
+    # Both classes weigh the same however many rigs each has (most rigs of a good template are right).
+    positives = max(y.sum(), 1.0)
+    negatives = max(len(y) - y.sum(), 1.0)
+    w = np.where(y > 0, 0.5 / positives, 0.5 / negatives)
+
+    def objective(theta):
+        coef, intercept = theta[:-1], theta[-1]
+        t = Z @ coef + intercept
+        p = 1.0 / (1.0 + np.exp(-t))
+        value = float(w @ (np.logaddexp(0.0, t) - y * t)) + L2 * float(coef @ coef)
+        grad_t = w * (p - y)
+        grad = np.concatenate([Z.T @ grad_t + 2 * L2 * coef, [grad_t.sum()]])
+        return value, grad
+
+    if 0 < y.sum() < len(y):
+        result = minimize(objective, np.zeros(len(FEATURES) + 1), jac=True, method="L-BFGS-B")
+        coef, intercept = result.x[:-1], result.x[-1]
+    else:
+        # Every calibration rig right (or every one wrong): the features cannot tell, the rate can. The
+        # template's rigs get the (smoothed) share of right rigs it had, whatever they look like.
+        rate = (y.sum() + 0.5) / (len(y) + 1.0)
+        coef, intercept = np.zeros(len(FEATURES)), float(np.log(rate / (1 - rate)))
+    model = ConfidenceModel(coef, intercept, mean, scale, bone_log_sigma)
+    predicted = np.array([model.probability(r) for r in rows])
+    model.record = {"calibration_rigs": int(len(rows)), "right_rigs": int(y.sum()),
+                    "misjudged": int(np.sum((predicted >= 0.5) != (y > 0)))}
+    return model
+
+
+def _without_model(template):
+    from dataclasses import replace
+    return replace(template, confidence=None)

@@ -1,0 +1,65 @@
+"""Learned placement: each joint pulled towards where the template, stretched to the mesh's size, puts it.
+
+The embedding finds the ends of a character's limbs surely (a fingertip, a paw, the tip of a tail stand out)
+and its trunk less surely: a quadruped's hips and chest lie in one blob of body, a robed figure's hips in its
+skirt. A learned template (``autorig learn``) knows where its joints sit relative to the limb ends, and how far
+to trust that over the refined position, joint by joint:
+
+    stretch    per-axis scale [3] of the mesh's bounding box in the template frame against the examples'
+               mean box (``extent``), clipped to [1 / MAX_STRETCH, MAX_STRETCH]; the frame is centred on the
+               box in x and z and has the feet at y = 0, so a scale about the origin stretches the template
+               over the body (a long-bodied animal, a wide one)
+    placed_j = refined_j + alpha_j * (stretch * template_j - refined_j)
+
+``alpha`` [J] is fitted on rigs of the examples by least squares and clipped to [0, 1] (0: keep the refined
+joint; 1: take the template's); leaves keep alpha 0, so the ends the embedding found stay where they are.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .template import Template
+
+
+MAX_STRETCH = 1.33
+
+
+def leaves(template: Template) -> np.ndarray:
+    """Indices of the template's leaf joints (the ends of the reduced skeleton)."""
+    has_child = np.zeros(len(template.names), dtype=bool)
+    has_child[template.parents[template.parents >= 0]] = True
+    return np.flatnonzero(~has_child)
+
+
+def stretched_template(extent: np.ndarray, template: Template, mean_extent) -> np.ndarray:
+    """[J, 3] the template's joints scaled per axis by the mesh's box ``extent`` [3] (template frame) against
+    the examples' ``mean_extent`` [3]."""
+    scale = np.clip(np.asarray(extent, float) / np.asarray(mean_extent, float), 1 / MAX_STRETCH, MAX_STRETCH)
+    return template.positions * scale
+
+
+def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray) -> np.ndarray:
+    """[J, 3] ``joints`` (canonical frame) pulled by the template's learned ``placement`` (unchanged without);
+    ``extent`` [3] is the mesh's bounding box in the same frame."""
+    if not template.placement:
+        return joints
+    alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
+    return joints + alpha * (stretched_template(extent, template, template.placement["extent"]) - joints)
+
+
+def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
+              mean_extent, weights: list[np.ndarray] | None = None) -> np.ndarray:
+    """[J] the alpha that brings the ``refined`` rigs [N][J, 3] nearest their ``truths`` [N][J, 3] (least
+    squares per joint over the examples, with per-example joint ``weights`` [N][J] (0 where unknown));
+    ``extents`` [N][3] are the meshes' boxes."""
+    J = len(template.names)
+    num, den = np.zeros(J), np.zeros(J)
+    for n, (R, T) in enumerate(zip(refined, truths)):
+        w = np.ones(J) if weights is None else weights[n]
+        pull = stretched_template(extents[n], template, mean_extent) - R
+        num += w * np.einsum("ij,ij->i", pull, T - R)
+        den += w * np.einsum("ij,ij->i", pull, pull)
+    alpha = np.where(den > 1e-12, num / np.maximum(den, 1e-12), 0.0)
+    alpha = np.clip(alpha, 0.0, 1.0)
+    alpha[leaves(template)] = 0.0
+    return alpha

@@ -1,0 +1,183 @@
+"""``autorig learn``: templates learned from rigged characters (``autorig.learn``).
+
+The project's own mannequins (``autorig.samples``), rigged with ``autorig.skin`` on their true skeletons, are the
+studio's characters: learning from some must rig the one left out near its true skeleton. The corpus in
+``../shared/data/train`` is used when it is there and skipped otherwise.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+from dataclasses import replace
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import autorig
+from autorig.embed.penalties import WEIGHTS, build_problem, embedding_terms
+from autorig.embed.search import search
+from autorig.errors import TemplateError
+from autorig.exchange import write_rig
+from autorig.exchange.skeleton import Skeleton
+from autorig.learn.gamma import Constraint, _solve
+from autorig.learn.proportions import mirror_pairs
+from autorig.mesh import prepare
+from autorig.pipeline import discretize
+from autorig.samples import mannequin
+from autorig.template import load_template, template_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+TRAIN = ROOT.parent / "shared" / "data" / "train"
+STUDIO = [("t", "adult"), ("a", "heavy"), ("down", "tall"), ("a", "child")]
+HELPER_OFFSET = np.array([0.0, 0.0, 0.35])    # an IK target in front of the hips, in the sample's units
+
+
+def run_cli(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "autorig.cli", *map(str, args)], capture_output=True, text=True)
+
+
+def studio_skeleton(sample) -> Skeleton:
+    """The sample's true skeleton, with a weightless helper (an IK target) hanging from the hips."""
+    names = [n for n in sample.joints]
+    template = load_template("biped")
+    names = [n for n in template.names if n in sample.joints]
+    parents = [names.index(template.names[template.parents[template.names.index(n)]])
+               if template.parents[template.names.index(n)] >= 0 else -1 for n in names]
+    positions = [sample.joints[n] for n in names]
+    names.append("ik_target")
+    parents.append(names.index("hips"))
+    positions.append(sample.joints["hips"] + HELPER_OFFSET)
+    data = {"joints": [{"name": n, "parent": names[p] if p >= 0 else None, "position": list(map(float, x))}
+                       for n, p, x in zip(names, parents, positions)]}
+    return data
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    """Rigged .glb files of four mannequins made with ``autorig.skin`` on their true skeletons."""
+    folder = tmp_path_factory.mktemp("studio")
+    samples = []
+    for pose, proportions in STUDIO:
+        sample = mannequin(pose=pose, proportions=proportions, resolution=48)
+        skeleton_file = folder / f"{pose}_{proportions}.joints.json"
+        skeleton_file.write_text(json.dumps(studio_skeleton(sample)))
+        rig = autorig.skin((sample.vertices, sample.faces), skeleton_file)
+        write_rig(rig, folder / f"{pose}_{proportions}.glb", "glb")
+        samples.append(sample)
+    return folder, samples
+
+
+@pytest.fixture(scope="module")
+def learned_file(studio, tmp_path_factory):
+    """The template ``autorig learn`` makes from three of the four studio rigs (the child left out)."""
+    folder, _ = studio
+    out = tmp_path_factory.mktemp("learned") / "studio.json"
+    result = run_cli("learn", *[f for f in sorted(folder.glob("*.glb")) if f.name != "a_child.glb"], "-o", out, "-q")
+    assert result.returncode == 0, result.stderr
+    return out
+
+
+def test_learned_from_glb_rigs_the_one_left_out(studio, learned_file):
+    _, samples = studio
+    out = learned_file
+    template = load_template(out)
+    # The studio's own joint names and hierarchy, a tip beyond each weighted leaf, the helper kept as a helper.
+    assert {"hips", "left_elbow", "right_knee"} <= set(template.names)
+    assert "ik_target" not in template.names and [h.name for h in template.helpers] == ["ik_target"]
+    assert template.names[template.helpers[0].parent] == "hips"
+    assert ("left_knee" in [template.names[i] for i, _ in template.symmetry])
+    assert template.penalty_weights and all(v >= 0 for v in template.penalty_weights.values())
+    assert len(template.learned_from["examples"]) == 3
+
+    child = samples[STUDIO.index(("a", "child"))]
+    rig = autorig.rig((child.vertices, child.faces), out, autorig.RigOptions(up="y", front="z"))
+    height = np.ptp(child.vertices[:, 1])
+    errors = [np.linalg.norm(rig.joint(n) - child.joints[n]) / height
+              for n in rig.names if n in child.joints and not n.endswith("_end")]
+    assert np.mean(errors) < 0.05 and np.max(errors) < 0.12
+    # The helper rides along at its learned offset (the samples' own, scaled to the height) and carries no weight.
+    helper = rig.names.index("ik_target")
+    assert rig.weights[:, helper].max() == 0
+    assert np.allclose(rig.weights.sum(axis=1), 1.0)
+    expected = rig.joint("hips") + HELPER_OFFSET / np.mean([np.ptp(s.vertices[:, 1]) for s in samples[:3]]) * height
+    assert np.linalg.norm(rig.joints[helper] - expected) / height < 0.05
+
+
+def test_template_file_round_trip_and_checks(learned_file):
+    data = json.loads(learned_file.read_text())
+    template = template_from_dict(data)
+    again = template_from_dict(json.loads(json.dumps(template.to_dict())))
+    assert again.names == template.names and again.helpers == template.helpers
+    assert np.allclose(again.positions, template.positions, atol=1e-4)
+    assert again.penalty_weights == pytest.approx(template.penalty_weights, abs=1e-4)
+    assert again.confidence == template.confidence
+    assert again.placement["alpha"] == pytest.approx(template.placement["alpha"], abs=1e-4)
+    # The confidence is the calibrated model's, and the placement pulls inner joints only.
+    assert template.confidence["kind"] == "logistic"
+    alpha = dict(zip(template.names, template.placement["alpha"]))
+    assert all(alpha[n] == 0 for n in template.names if n.endswith("_end"))
+    with pytest.raises(TemplateError, match="placement"):
+        template_from_dict({**data, "placement": {"alpha": [2.0] * len(template.names), "extent": [1, 1, 1]}})
+    with pytest.raises(TemplateError, match="unknown penalties"):
+        template_from_dict({**data, "penalty_weights": {"lenght": 1.0}})
+    with pytest.raises(TemplateError, match=">= 0"):
+        template_from_dict({**data, "penalty_weights": {"length": -1}})
+    with pytest.raises(TemplateError, match="helper"):
+        template_from_dict({**data, "helpers": [{"name": "x", "parent": "nobody", "offset": [0, 0, 0]}]})
+
+
+def test_penalty_terms_add_up_to_the_search_cost():
+    sample = mannequin(pose="a", resolution=48)
+    prepared = prepare(sample.vertices, sample.faces, "y", "z")
+    _, graph = discretize(prepared)
+    hand_set = load_template(ROOT / "templates" / "handset" / "biped.json")
+    for weights in (None, {**WEIGHTS, "height": 0.5, "fat": 0.3}):
+        problem = build_problem(graph, replace(hand_set, penalty_weights=weights))
+        found = search(problem)
+        terms = embedding_terms(problem, found.spheres)
+        assert sum(problem.weights[k] * v for k, v in terms.items()) == pytest.approx(found.cost, rel=1e-9)
+
+
+def test_max_margin_solve_meets_the_margins():
+    prior = np.array([1.0, 1.0, 1.0])
+    # The wrong embedding is cheaper on the first penalty and dearer on the second: Γ must weigh the second more.
+    constraints = [Constraint(np.array([-1.0, 1.0, 0.0]), 1.0, 0), Constraint(np.array([-0.5, 2.0, 0.0]), 1.0, 1)]
+    gamma = _solve(constraints, prior, prior.copy())
+    assert all(gamma @ c.difference >= c.loss - 0.1 for c in constraints)
+    assert gamma[1] > gamma[0] and np.all(gamma >= 0)
+
+
+def test_mirror_pairs_found_by_geometry():
+    positions = np.array([[0, 0.5, 0], [0.1, 0.5, 0], [-0.1, 0.5, 0], [0.1, 0.2, 0], [-0.1, 0.21, 0],
+                          [0.3, 0.5, 0]])
+    parents = np.array([-1, 0, 0, 1, 2, 0])
+    assert mirror_pairs(positions, parents) == [(1, 2), (3, 4)]
+
+
+def test_learn_errors_are_one_line(tmp_path):
+    result = run_cli("learn", tmp_path / "nothing.glb", "-o", tmp_path / "t.json")
+    assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
+    result = run_cli("learn", tmp_path, "-o", tmp_path / "t.json")
+    assert result.returncode == 2 and "no rigged characters" in result.stderr
+    result = run_cli("learn", tmp_path, "-o", tmp_path / "t.txt")
+    assert result.returncode == 2 and ".json" in result.stderr
+    result = run_cli("learn", tmp_path, "-o", tmp_path / "missing" / "t.json")
+    assert result.returncode == 4
+
+
+@pytest.mark.skipif(not TRAIN.is_dir(), reason="the training corpus (../shared/data/train) is not present")
+def test_corpus_folders_learn_the_base_templates_joints(tmp_path):
+    folders = [TRAIN / n for n in ("0ad_m_hero_caros", "0ad_kush_female_citizen", "0ad_maur_fisherman",
+                                   "0ad_chicken")]
+    out = tmp_path / "biped.json"
+    result = run_cli("learn", *folders, "--template", "biped", "-o", out, "-q")
+    assert result.returncode == 0, result.stderr
+    template = load_template(out)
+    assert template.names == load_template("biped").names
+    assert template.learned_from["examples"] == ["0ad_m_hero_caros", "0ad_kush_female_citizen",
+                                                 "0ad_maur_fisherman"]    # the chicken has no biped map
+    # Learned proportions, not the base's: the corpus's shoulders sit high, near the neck.
+    t = dict(zip(template.names, template.positions))
+    assert t["left_shoulder"][1] > 0.75 and abs(t["left_shoulder"][0] + t["right_shoulder"][0]) < 1e-9
