@@ -49,9 +49,11 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     say(f"{len(examples)} examples")
     skeleton = skeleton_of_base(base) if base is not None else skeleton_of_examples(examples)
     per_example = np.array([example_positions(e, skeleton, base) for e in examples])
+    extents = np.array([np.ptp(e.prepared().work_vertices, axis=0) for e in examples])
     template = _template(skeleton, per_example, examples, base, name)
     settings, fields = _settings(examples, template, per_example, say)
-    template = replace(template, fat=tuple(_fat(template, per_example, fields)))
+    depths = np.mean([np.maximum(f.depth(p), 0.0) for f, p in zip(fields, per_example)], axis=0)
+    template = replace(template, fat=tuple(_fat(template, depths)))
     gamma_rounds = []
     if learn_gamma:
         from .gamma import learn_weights
@@ -60,7 +62,7 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
         gamma_rounds = report.rounds
     confidence = {}
     if calibrate:
-        template, confidence = _calibrated(template, skeleton, examples, per_example, settings, base, name, say)
+        template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say)
     spread = np.sqrt(np.mean(np.sum((per_example - template.positions) ** 2, axis=2), axis=0))
     record = {"examples": [e.name for e in examples], "base": base.name if base is not None else None,
               "penalty_rounds": gamma_rounds,
@@ -71,7 +73,8 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
 
 def _template(skeleton, per_example: np.ndarray, examples: list[Example], base: Template | None,
               name: str | None) -> Template:
-    """The mean skeleton, symmetric, with its mirror pairs, feet and helpers (fat joints come later)."""
+    """The mean skeleton of the examples [N, J, 3], symmetric, with its mirror pairs, feet and helpers
+    (fat joints come later)."""
     mean = per_example.mean(axis=0)
     pairs = (list(base.symmetry) if base is not None else mirror_pairs(mean, skeleton.parents))
     positions = symmetrized(mean, pairs)
@@ -109,17 +112,20 @@ def _settings(examples, template, per_example, say):
             settings.append(Setting(graph.moved(change.apply(graph.centers), change.scale), change.apply(truth),
                                     _handicap(up, front), False, n,
                                     field.moved(change.rotation, change.offset, change.scale),
-                                    "back" if front[-1] == example.front[-1] else "side", extent))
+                                    "back" if (up, front[-1]) == (example.up, example.front[-1]) else "other",
+                                    extent))
         say(f"discretized {example.name} ({len(graph.radii)} spheres)")
     return settings, fields
 
 
 def _frames(up: str, front: str) -> list[tuple[str, str]]:
-    """The example's own frame first, then the frames with the same up that face the wrong way."""
-    axes = ("x", "y", "z")
-    left = next(a for a in axes if a not in (up[-1], front[-1]))
-    back = front[1:] if front.startswith("-") else "-" + front
-    return [(up, front), (up, back), (up, left), (up, "-" + left)]
+    """The example's own frame first, then every frame orientation detection may weigh against it: up and
+    front along the example's up and front axes, either way round (``orient.candidate_frames``), and facing
+    sideways."""
+    from ..orient import AXES, candidate_frames
+    left = next(a for a in AXES if a not in (up[-1], front[-1]))
+    frames = candidate_frames("auto", "auto", AXES.index(left)) + [(up, left), (up, "-" + left)]
+    return [(up, front)] + [f for f in dict.fromkeys(frames) if f != (up, front)]
 
 
 def _reduced_settings(settings, template):
@@ -127,9 +133,9 @@ def _reduced_settings(settings, template):
     return [replace(s, truth=s.truth[joints]) for s in settings]
 
 
-def _fat(template: Template, per_example: np.ndarray, fields) -> list[int]:
-    """Fat joints from the examples' own depths (``proportions.fat_joints``); the template's if it has some."""
-    depths = np.mean([np.maximum(f.depth(p), 0.0) for f, p in zip(fields, per_example)], axis=0)
+def _fat(template: Template, depths: np.ndarray) -> list[int]:
+    """Fat joints from the examples' mean depths [J] (``proportions.fat_joints``); the template's if it has
+    some."""
     tips = np.array([template.is_tip(j) for j in range(len(template.names))])
     learned = fat_joints(depths, template.parents, tips)
     return list(template.fat) or learned
@@ -141,7 +147,7 @@ def group_of(example: Example) -> str:
     return str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else example.name
 
 
-def _calibrated(template, skeleton, examples, per_example, settings, base, name, say):
+def _calibrated(template, skeleton, examples, per_example, extents, settings, say):
     """``template`` with its learned placement and a confidence model, both fitted on rigs of held-out folds
     (``placement.fit_alpha``, ``calibrate``)."""
     from ..placement import fit_alpha
@@ -169,7 +175,7 @@ def _calibrated(template, skeleton, examples, per_example, settings, base, name,
         say(f"calibration fold {fold + 1}/{len(set(folds.tolist()))}: {len(samples)} rigs")
     own = [s for s in samples if s.own_frame]
     if own:
-        mean_extent = np.mean([s.extent for s in settings if s.true_frame], axis=0)
+        mean_extent = extents.mean(axis=0)
         alpha = fit_alpha([s.refined for s in own], [s.truth for s in own], [s.extent for s in own], template,
                           mean_extent, [s.scored.astype(float) for s in own])
         template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})

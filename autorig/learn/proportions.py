@@ -110,12 +110,11 @@ def example_positions(example: Example, skeleton: Skeleton, base: Template | Non
 
 
 def _tip(example: Example, skeleton: Skeleton, tip: int, positions: np.ndarray) -> np.ndarray:
-    """Where the limb ending at ``tip``'s parent ends: the farthest vertex weighted to the nearest joint of
-    the example above the tip, or to joints below that one that stand for no other template joint."""
+    """Where the limb ending at ``tip``'s parent ends: the farthest vertex weighted to that joint of the
+    example, or to joints below it that stand for no other template joint."""
     j = int(skeleton.parents[tip])
-    while j >= 0 and (skeleton.source[j] is None or skeleton.source[j] not in example.key_of):
-        j = int(skeleton.parents[j])
-    if j < 0:
+    if skeleton.source[j] is None or skeleton.source[j] not in example.key_of:
+        # The limb's last joint is missing (a rig without toes): its tip is placed with it, as the base does.
         return np.full(3, np.nan)
     own = example.key_of[skeleton.source[j]]
     others = {example.key_of[n] for n in skeleton.source if n is not None and n in example.key_of} - {own}
