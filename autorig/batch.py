@@ -230,6 +230,7 @@ class _Job:
     skeleton: object
     options: object
     fmt: str
+    names: str = "template"
     thumbnails: bool = False
 
 
@@ -238,7 +239,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                fmt: str = "glb", extensions: Iterable[str] = DEFAULT_EXTENSIONS,
                jobs: int | None = None, scheduler: str | None = None, force: bool = False,
                report: str | os.PathLike | None = None, junit: str | os.PathLike | None = None,
-               html: str | os.PathLike | None = None, on_start: Callable[[int, int], None] | None = None,
+               html: str | os.PathLike | None = None, names: str = "template",
+               on_start: Callable[[int, int], None] | None = None,
                on_result: Callable[[AssetResult], None] | None = None) -> BatchResult:
     """Rig every mesh under ``input_dir`` into ``output_dir`` (see the module docstring).
 
@@ -258,6 +260,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     html               where to write the review page (``autorig.batch_review``), if anywhere; default the
                        ``html`` of ``input_dir``'s own config file. The workers then draw each rig's thumbnails
                        (needs matplotlib), kept in ``output_dir/.autorig-thumbnails``
+    names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (mixamo: biped only;
+                       an asset with other joints fails)
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 
@@ -292,7 +296,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     except OSError as e:
         raise OutputError(f"cannot write {output_dir}: {e.strerror or e}") from None
 
-    plans = _plan(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options)
+    plans = _plan(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options, names)
     manifest_path = output_dir / MANIFEST_NAME
     manifest = _read_manifest(manifest_path)
     results: dict[str, AssetResult] = {}
@@ -336,7 +340,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         for plan in order:
             try:
                 yield plan, _Job(plan.rel, _input_files(input_dir / plan.rel), plan.template, plan.skeleton,
-                                 plan.options, fmt, thumbnails=html is not None)
+                                 plan.options, fmt, names=names, thumbnails=html is not None)
             except InputError as e:  # unreadable, or gone since it was found
                 finished(plan, {"status": "failed", "remember": False, "error": str(e),
                                 "error_type": "InputError"})
@@ -381,7 +385,7 @@ def find_meshes(input_dir: str | os.PathLike, extensions: Iterable[str] = DEFAUL
 
 
 def _plan(input_dir: Path, output_dir: Path, template, options, fmt: str, extensions, skeleton=None,
-          skin_options=None) -> list[_Plan]:
+          skin_options=None, names: str = "template") -> list[_Plan]:
     """Each asset's effective options, output path and resume key; config, template and skeleton errors raise
     here."""
     from dataclasses import replace
@@ -446,7 +450,9 @@ def _plan(input_dir: Path, output_dir: Path, template, options, fmt: str, extens
             key, size = "", 0  # fails as that asset's error when it is read again to be rigged
         else:
             key = _digest({"input": {name: hashlib.sha256(data).hexdigest() for name, data in files.items()},
-                           **settings, "format": fmt, "autorig": __version__})
+                           **settings, "format": fmt, "autorig": __version__,
+                           # only when asked, so that rigs from before --names still count as done
+                           **({"names": names} if names != "template" else {})})
             size = sum(map(len, files.values()))
         plans.append(_Plan(rel, outputs[rel], loaded, parsed, how, label, up, front, key, size))
     return plans
@@ -664,21 +670,32 @@ def _input_files(path: Path) -> dict[str, bytes]:
         files = {path.name: path.read_bytes()}
     except OSError as e:
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+    folder = path.parent.resolve()
+
+    def add(name: str, base: Path = folder) -> Path | None:
+        target = (base / name).resolve()
+        # Only files beside or below the mesh: they have to fit in a worker's scratch folder.
+        if folder in target.parents and target.is_file():
+            files[PurePosixPath(target.relative_to(folder).as_posix()).as_posix()] = target.read_bytes()
+            return target
+        return None
+
     if path.suffix.lower() == ".gltf":
         try:
             document = json.loads(files[path.name])
         except (ValueError, UnicodeDecodeError):
             return files  # not JSON: the loader will say so
-        folder = path.parent.resolve()
         for item in [*document.get("buffers", []), *document.get("images", [])]:
             uri = item.get("uri") if isinstance(item, dict) else None
             if not isinstance(uri, str) or uri.startswith("data:") or ":" in uri.split("/")[0]:
                 continue
-            name = unquote(uri)
-            target = (folder / name).resolve()
-            # Only files beside or below the glTF: they have to fit in a worker's scratch folder.
-            if folder in target.parents and target.is_file():
-                files[PurePosixPath(target.relative_to(folder).as_posix()).as_posix()] = target.read_bytes()
+            add(unquote(uri))
+    elif path.suffix.lower() == ".obj":
+        from .look import material_files
+        for library, maps in material_files(path):
+            if add(library) is not None:
+                for name in maps:
+                    add(name, (folder / library).parent)
     return files
 
 
@@ -829,6 +846,8 @@ def _rig_one(job: _Job) -> dict:
                     if problem:
                         raise SkeletonError(f"{job.name}: {problem}")
                 result = skin(str(mesh), job.skeleton, job.options)
+            from .naming import rename_joints
+            result = rename_joints(result, job.names)
             timings = dict(result.timings)
             result.timings = {}  # they differ on every run, and the outputs must not
             written = time.perf_counter()

@@ -31,10 +31,11 @@ from .quiet import quiet_libraries
 
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
 # Must match autorig.exchange.FORMATS (a test checks); repeated here so --help need not import numpy.
-FORMATS = ["glb", "gltf", "pinocchio", "json"]
+FORMATS = ["glb", "gltf", "pinocchio", "json", "usda", "usdc", "usdz", "fbx"]
 # Must match autorig.extract.AUTO (a test checks): the template name of template-free skeletons.
 AUTO_TEMPLATE = "auto"
-FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json"}
+FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json", ".usda": "usda", ".usdc": "usdc",
+                    ".usdz": "usdz", ".fbx": "fbx"}
 
 EXIT_INTERNAL = 70   # EX_SOFTWARE from BSD sysexits: a bug in autorig
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
@@ -54,7 +55,10 @@ Exit codes:
 
 _DEBUG = "autorig.debug"  # key in click's ctx.meta, which a group shares with its subcommands
 
-# Shared by 'autorig rig' and 'autorig batch'.
+# Shared by 'autorig rig' and 'autorig batch'. NAME_SCHEMES must match autorig.naming.NAME_SCHEMES.
+NAME_SCHEMES = ["template", "mixamo"]
+NAMES_HELP = ("Joint names in the output: the template's, or mixamo (mixamorig:Hips, mixamorig:LeftUpLeg, ...; "
+              "biped only) for animation libraries and Unity's Humanoid auto-mapping.")
 VOXELS_HELP = "--template auto: voxels along the mesh's longest side (finer finds thinner limbs)."
 MAX_SEGMENTS_HELP = "--template auto: the most bones per chain (limb), plus one for each chain hanging from it."
 
@@ -148,8 +152,8 @@ def cli():
 @click.option("-o", "--output", metavar="PATH",
               help="Where to write the rig. [default: beside MESH, e.g. hero.obj -> hero.rigged.glb]")
 @click.option("-f", "--format", "fmt", type=click.Choice(FORMATS),
-              help="Output format. [default: from -o's extension (.glb, .gltf, .json; no extension: "
-                   "pinocchio folder), else glb]")
+              help="Output format. [default: from -o's extension (.glb, .gltf, .json, .usda/.usdc/.usdz, "
+                   ".fbx; no extension: pinocchio folder), else glb]")
 @click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
               help="The mesh's up axis, or auto to detect it.")
 @click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
@@ -169,12 +173,14 @@ def cli():
 @click.option("--skeleton-scale", default=None, metavar="FLOAT|auto",
               help="--skeleton: multiply its positions by FLOAT, or auto: fit it to the mesh's size. "
                    "[default: auto for .bvh, else 1 (positions in the mesh's units)]")
+@click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
+              help=NAMES_HELP)
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
                 strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
-                skeleton_scale: str | None, verbose: bool, quiet: bool):
+                skeleton_scale: str | None, names: str, verbose: bool, quiet: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
     --skeleton, compute skin weights for your own skeleton.
 
@@ -187,9 +193,14 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     from .template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
-        return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, verbose, quiet, start)
+        return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, names, verbose, quiet,
+                             start)
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
+    if names != "template":
+        from .naming import check_names
+        # A template without Mixamo names fails here, before any slow work.
+        check_names(["root"] if skeleton == AUTO_TEMPLATE else list(skeleton.names), names)
     if "auto" not in (up, front):
         frame_rotation(up, front)  # rejects up parallel to front before any slow work
     out_path, fmt = _output_for(mesh_path, output, fmt, preview)
@@ -205,7 +216,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         if strict and confidence < STRICT_THRESHOLD:
             raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
                                      f"({_weakest(result.info['confidence_parts'])}); nothing written")
-        preview_path = _write(result, out_path, fmt, mesh_path, preview, verbose)
+        preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
     if not quiet:
@@ -248,7 +259,7 @@ def _import_paused(modules: tuple[str, ...], fmt: str) -> None:
 
 
 def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | None, output: str | None,
-                  fmt: str | None, preview: bool, verbose: bool, quiet: bool, start: float) -> None:
+                  fmt: str | None, preview: bool, names: str, verbose: bool, quiet: bool, start: float) -> None:
     """``autorig MESH --skeleton FILE``: weights for the user's skeleton (``autorig.pipeline.skin``)."""
     ctx = click.get_current_context()
     if skeleton_file is None:
@@ -277,7 +288,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     with quiet_libraries(shown=verbose):
         _import_paused(SKIN_MODULES, fmt)
         result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale))
-        preview_path = _write(result, out_path, fmt, mesh_path, preview, verbose)
+        preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
     if not quiet:
@@ -492,12 +503,14 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
               help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
                    "ones first (one offline file; needs matplotlib). Also: html = \"PATH\" in INPUT_DIR's "
                    "autorig.toml, relative to OUTPUT_DIR.")
+@click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
+              help=NAMES_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
 @_common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
                   skeleton_scale: str | None, up: str, front: str, voxels: int, max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, html: str | None, quiet: bool):
+                  junit: str | None, html: str | None, names: str, quiet: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
     \b
@@ -540,7 +553,8 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
-                            junit=junit, html=html, on_start=progress.on_start, on_result=progress.on_result)
+                            junit=junit, html=html, names=names, on_start=progress.on_start,
+                            on_result=progress.on_result)
     finally:
         progress.close()
     if not quiet:
@@ -602,6 +616,12 @@ def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, ver
     return preview_path
 
 
+def _named(result, names: str):
+    """The rig with its joints named as ``--names`` says (``autorig.naming``)."""
+    from .naming import rename_joints
+    return rename_joints(result, names)
+
+
 def _weakest(parts: dict[str, float]) -> str:
     """The lowest parts of a confidence, e.g. 'limbs 0.29, fit 0.41'."""
     low = sorted(parts.items(), key=lambda kv: kv[1])[:2]
@@ -618,7 +638,7 @@ def _format_of(output: str | None) -> str:
     if not path.suffix or path.is_dir():
         return "pinocchio"  # Pinocchio output is a folder holding skeleton.out and attachment.out
     raise click.UsageError(f"cannot tell the output format from {output!r}: use --format "
-                           f"({', '.join(FORMATS)}) or an extension .glb, .gltf or .json")
+                           f"({', '.join(FORMATS)}) or an extension .glb, .gltf, .json, .usda, .usdc, .usdz or .fbx")
 
 
 def _refuse_input(out: Path, mesh: Path) -> None:
@@ -640,6 +660,11 @@ def _check_output(out: Path, fmt: str) -> None:
         raise OutputError(f"cannot write {out}: permission denied in {parent}")
     if fmt != "pinocchio" and out.is_dir():
         raise OutputError(f"cannot write {out}: it is a directory")
+    if fmt in ("usda", "usdc", "usdz", "fbx"):
+        # usd-core or Blender missing: say what to install before the slow work.
+        from .exchange.fbx import blender_path
+        from .exchange.usd import require_usd
+        (blender_path if fmt == "fbx" else require_usd)()
 
 
 def _require_matplotlib(what: str) -> None:

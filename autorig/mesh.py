@@ -53,8 +53,8 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
               triangulated polygons by their number of sides.
 
     A glTF scene is flattened: each mesh node's vertices are moved by the node's world transform, and the nodes
-    are concatenated in order of their (unique) node names. Point clouds and lines in a scene are ignored.
-    Materials and textures are never read.
+    are concatenated in order of their node names (see ``autorig.exchange.gltf.read_gltf_scene``). Point clouds
+    and lines in a scene are ignored. Materials and textures are not read here (``autorig.look`` does).
 
     Raises ``InputError`` (one line naming the file) for a missing or unreadable file, an unknown format,
     content that is not a mesh, and for meshes that cannot be rigged (see ``check_mesh``).
@@ -68,6 +68,9 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
         text = _as_text(data, path, FORMATS[suffix])
         vertices, faces = _parse_obj(text, path) if suffix == ".obj" else _parse_off(text, path)
+    elif suffix in (".glb", ".gltf"):
+        from .exchange.gltf import read_gltf_scene
+        vertices, faces, _ = read_gltf_scene(path)
     else:
         vertices, faces = _load_with_trimesh(path, suffix)
     return check_mesh(vertices, faces, name=str(path))

@@ -67,10 +67,10 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        vertices, faces, name = _load(mesh)
+        vertices, faces, name, look = _load(mesh)
         template = template if isinstance(template, Template) or template == AUTO else load_template(template)
     if template == AUTO:
-        return _rig_without_template(vertices, faces, name, options, stage, timings)
+        return _rig_without_template(vertices, faces, name, look, options, stage, timings)
     with stage("prepare"):
         prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name, checked=True)
     field, graph = discretize(prepared, stage)
@@ -92,7 +92,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
 
     return Rig(
         names=names, parents=parents, joints=prepared.from_canonical(joints),
-        weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings,
+        weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
@@ -156,7 +156,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        vertices, faces, mesh_name = _load(mesh)
+        vertices, faces, mesh_name, look = _load(mesh)
         name = Path(skeleton).stem if isinstance(skeleton, (str, Path)) else "skeleton"
         skeleton = skeleton if isinstance(skeleton, Skeleton) else read_skeleton(skeleton)
     with stage("prepare"):
@@ -181,7 +181,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     return Rig(
         names=list(skeleton.names), parents=skeleton.parents.copy(), joints=positions, weights=weights,
         vertices=vertices, faces=faces, template=(skeleton.joint_nodes.skin_name if skeleton.joint_nodes else "")
-        or name, timings=timings, joint_nodes=skeleton.joint_nodes,
+        or name, timings=timings, joint_nodes=skeleton.joint_nodes, look=look,
         info={"skeleton": skeleton.kind, "skeleton_scale": round(factor, 6),
               "joints_weighted": int(carrying.sum()), "tip_bones": plan.tips,
               "cold_bones": {reason: [f"{skeleton.names[skeleton.parents[skeleton.names.index(c)]]} -> {c}"
@@ -191,7 +191,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
               "all_bones_heat": plan.fallback})
 
 
-def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage, timings) -> Rig:
+def _rig_without_template(vertices, faces, name: str, look, options: RigOptions, stage, timings) -> Rig:
     """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
     from .attach import bone_heat
@@ -219,19 +219,22 @@ def _rig_without_template(vertices, faces, name: str, options: RigOptions, stage
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
-        weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings,
+        weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
               "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths)})
 
 
-def _load(mesh) -> tuple[np.ndarray, np.ndarray, str]:
-    """(vertices [V, 3], faces [F, 3], the name errors use) of a mesh path or (vertices, faces) pair, checked."""
+def _load(mesh) -> tuple[np.ndarray, np.ndarray, str, object]:
+    """(vertices [V, 3], faces [F, 3], the name errors use, the input's ``Look`` or None) of a mesh path or
+    (vertices, faces) pair, checked."""
+    from .look import load_look
     from .mesh import check_mesh, load_mesh
 
     if isinstance(mesh, (str, Path)):
-        return (*load_mesh(mesh), Path(mesh).name)
-    return (*check_mesh(*mesh, "mesh"), "mesh")
+        vertices, faces = load_mesh(mesh)
+        return vertices, faces, Path(mesh).name, load_look(mesh, faces)
+    return (*check_mesh(*mesh, "mesh"), "mesh", None)
 
 
 def _stage_timer(timings: dict[str, float]):

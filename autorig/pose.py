@@ -29,6 +29,7 @@ import numpy as np
 from .errors import InputError
 from .exchange.bvh import Motion
 from .mesh import frame_rotation
+from .naming import template_names
 from .result import Rig
 
 __all__ = ["BIPED_MAP", "Animation", "joint_map", "read_map", "retarget", "skin"]
@@ -120,11 +121,13 @@ def joint_map(rig_names: list[str], motion_names: list[str], overrides: dict[str
     by_bare = {}
     for name in motion_names:
         by_bare.setdefault(_bare(name), name)
+    # A rig written with --names mixamo maps as the biped it is.
+    rig_joint = dict(zip(template_names(rig_names), rig_names))
     mapping = {}
     for joint, candidates in BIPED_MAP.items():
         found = next((by_bare[c] for c in candidates if c in by_bare), None)
-        if joint in rig_names and found is not None:
-            mapping[joint] = found
+        if joint in rig_joint and found is not None:
+            mapping[rig_joint[joint]] = found
     for joint, target in (overrides or {}).items():
         if joint not in rig_names:
             raise InputError(f"the joint map names {joint!r}, which the rig does not have "
@@ -161,7 +164,7 @@ def retarget(rig: Rig, motion: Motion, mapping: dict[str, str] | None = None, up
     source = {j: motion.names.index(mapping[name]) for j, name in enumerate(rig.names) if name in mapping}
 
     rig_frame = frame_rotation(up or rig.info.get("up", "y"), front or rig.info.get("front", "z"))
-    motion_frame = _motion_frame(motion, rig.names, source)
+    motion_frame = _motion_frame(motion, template_names(rig.names), source)
     to_rig = rig_frame.T @ motion_frame  # motion-space vectors -> rig-space vectors
     motion_rest = motion.rest_positions() @ to_rig.T
     motion_r, motion_p = motion.world_transforms()
@@ -260,7 +263,7 @@ def _hip_height(rig: Rig, up: np.ndarray) -> float:
     """The rig's hips above its lowest vertex with straight legs (see ``_leg_height``)."""
     rest = np.asarray(rig.joints, dtype=np.float64)
     ground = float(np.min(np.asarray(rig.vertices) @ up))
-    at = {name: rest[j] for j, name in enumerate(rig.names)}
+    at = {name: rest[j] for j, name in enumerate(template_names(rig.names))}
     root = rest[int(np.flatnonzero(np.asarray(rig.parents) < 0)[0])]
     return _leg_height(at, root, up, ground)
 
@@ -270,7 +273,8 @@ def _motion_hip_height(motion: Motion, mapping: dict[str, str], up: np.ndarray) 
     rest = motion.rest_positions()
     points = [rest] + [rest[b] + offset for b, offset in motion.end_sites.items()]
     ground = float(np.min(np.vstack(points) @ up))
-    at = {joint: rest[motion.names.index(name)] for joint, name in mapping.items()}
+    at = {joint: rest[motion.names.index(name)] for joint, name in zip(template_names(list(mapping)),
+                                                                         mapping.values())}
     return _leg_height(at, at.get("hips", rest[0]), up, ground)
 
 

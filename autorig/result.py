@@ -31,6 +31,51 @@ class JointNodes:
 
 
 @dataclass
+class Image:
+    """A texture image exactly as the input file held it (never decoded): ``data`` are the file's bytes."""
+    data: bytes
+    mime_type: str          # "image/png" or "image/jpeg", the two that glTF 2.0 allows
+    name: str = ""
+
+
+@dataclass
+class Look:
+    """What the input looks like beyond its shape: UVs, colours, normals, materials and textures, on the
+    *output vertices*. UV seams and hard edges give one input vertex several output vertices: the input's
+    vertices come first, in their order (output vertex i < V is input vertex i, with the attributes of its
+    first corner in the file), then the seam copies in the order they first appear.
+
+    vertex_of      [W] int64 the input vertex each output vertex copies (W >= V; vertex_of[:V] = 0..V-1)
+    faces          [F, 3] int64 the input's triangles over the output vertices, in the same order, so
+                   ``vertex_of[faces] == rig.faces``
+    texcoords      list of [W, 2] float32 UV sets (glTF's convention: v grows downwards from the image's top)
+    colors         [W, 4] float32 linear RGBA vertex colours, or None
+    normals        [W, 3] float32 unit normals from the input, or None (the writers compute them)
+    face_material  [F] int64 index into ``materials`` of each triangle, -1 for none
+    face_part      [F] int64 index into ``parts``: which of the input's meshes (OBJ object, glTF mesh node)
+    parts          [P] {"name": str, "extras": dict}: the input's meshes, written as one mesh node each
+    materials      glTF 2.0 material objects (JSON); their texture ``index`` points into ``textures``
+    textures       glTF texture objects {"source": image index, "sampler": sampler index}
+    samplers       glTF sampler objects
+    images         [Image] the texture images, bytes untouched
+    extras         the input glTF scene's ``extras``, kept on the output's scene
+    """
+    vertex_of: np.ndarray
+    faces: np.ndarray
+    texcoords: list[np.ndarray]
+    colors: np.ndarray | None
+    normals: np.ndarray | None
+    face_material: np.ndarray
+    face_part: np.ndarray
+    parts: list[dict]
+    materials: list[dict]
+    textures: list[dict]
+    samplers: list[dict]
+    images: list[Image]
+    extras: dict = field(default_factory=dict)
+
+
+@dataclass
 class Rig:
     """A skeleton embedded in a mesh, with skin weights.
 
@@ -48,6 +93,7 @@ class Rig:
     info      free-form diagnostics (detected axes, penalties, ...), JSON-serialisable
     joint_nodes  the source glTF's joint nodes when the skeleton came from one (``JointNodes``), else None:
               the glTF writers then keep its hierarchy, transforms and inverse bind matrices
+    look      the input's UVs, colours, materials and textures (``Look``), or None for a bare mesh
     """
     names: list[str]
     parents: np.ndarray
@@ -59,6 +105,7 @@ class Rig:
     timings: dict[str, float] = field(default_factory=dict)
     info: dict = field(default_factory=dict)
     joint_nodes: JointNodes | None = None
+    look: Look | None = None
 
     @property
     def bones(self) -> list[tuple[int, int]]:

@@ -120,3 +120,94 @@ def test_a_rig_exported_by_blender_reweights_with_its_own_skeleton(rig, tmp_path
     agree = np.mean(result.weights[:, same].argmax(axis=1) == rig.weights.argmax(axis=1))
     assert agree > 0.99
     assert validate(out)["errors"] == 0
+
+
+RENDER = Path(__file__).with_name("blender_render.py")
+TEXTURED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "textured"
+# Where to keep copies of the pictures for people to look at ($AUTORIG_ARTIFACTS, if set); nothing reads them.
+ARTIFACTS = os.environ.get("AUTORIG_ARTIFACTS")
+
+
+def render_report(path: Path, picture: Path, bone: str | None = None) -> dict:
+    run = run_blender(RENDER, path, picture, *([bone] if bone else []))
+    lines = [line for line in run.stdout.splitlines() if line.startswith("AUTORIG_BLENDER ")]
+    assert run.returncode == 0 and lines, run.stdout[-3000:] + run.stderr[-3000:]
+    return json.loads(lines[0].split(" ", 1)[1])
+
+
+def keep_picture(picture: Path) -> None:
+    if not ARTIFACTS:
+        return
+    try:
+        Path(ARTIFACTS).mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(picture, Path(ARTIFACTS) / picture.name)
+    except OSError:
+        pass  # a read-only or missing place for copies does not make the picture wrong
+
+
+TEXTURED_CASES = {
+    # name: (input, template, bone to bend in the picture, texture file it must show)
+    "cesiumman": ("CesiumMan.glb", "biped", "left_elbow", None),
+    "babi": ("Babi/Babi.obj", "quadruped", "front_left_shoulder", "Babi/Tex.png"),
+}
+
+
+@pytest.fixture(scope="module")
+def textured_rigs(tmp_path_factory):
+    if not TEXTURED.is_dir():
+        pytest.skip("../shared/data/textured is not there")
+    import autorig
+    folder = tmp_path_factory.mktemp("textured")
+    rigs = {}
+    for name, (mesh, template, _, _) in TEXTURED_CASES.items():
+        rig = autorig.rig(str(TEXTURED / mesh), template)
+        path = folder / f"{name}.rigged.glb"
+        write_glb(rig, path)
+        rigs[name] = (rig, path)
+    return rigs
+
+
+@pytest.mark.parametrize("name", sorted(TEXTURED_CASES))
+def test_blender_renders_the_textured_rig_with_its_texture(textured_rigs, tmp_path, name):
+    rig, path = textured_rigs[name]
+    bone = TEXTURED_CASES[name][2]
+    picture = tmp_path / f"{name}_rigged_blender.png"
+    report = render_report(path, picture, bone)
+    keep_picture(picture)
+    assert report["armatures"] == 1 and sorted(report["bones"]) == sorted(rig.names)
+    (images,) = report["textures"].values()    # one material, whose base colour comes from one image
+    (_, width, height), = images
+    assert width >= 256 and height >= 256        # the texture image itself, loaded with its pixels
+    assert report["covered"] > 0.03
+    # A grey, untextured model renders with no colour at all; these textures are pink and blue-green.
+    assert report["saturation"] > 0.08
+    assert validate(path)["errors"] == 0
+
+
+def test_fbx_round_trip_through_blender(textured_rigs, tmp_path):
+    from autorig.exchange import write_rig
+    rig, _ = textured_rigs["babi"]
+    path = tmp_path / "babi.fbx"
+    write_rig(rig, path, "fbx")
+    picture = tmp_path / "babi_fbx_blender.png"
+    report = render_report(path, picture)
+    keep_picture(picture)
+    assert report["armatures"] == 1
+    assert sorted(report["bones"]) == sorted(rig.names)
+    slots, amounts = top4_influences(rig.weights)
+    assert set(report["groups"]) == {rig.names[j] for j in np.unique(slots[amounts > 0])}
+    (images,) = report["textures"].values()
+    (_, width, height), = images
+    assert (width, height) == (1024, 1024)   # Tex.png, embedded in the FBX
+    assert report["saturation"] > 0.08
+
+
+def test_fbx_without_blender_is_one_line(tmp_path):
+    mesh = tmp_path / "hero.obj"
+    rig = rigged_mannequin()[1]
+    write_obj(rig.vertices, rig.faces, mesh)
+    env = dict(os.environ, AUTORIG_BLENDER=str(tmp_path / "no-blender"))
+    done = subprocess.run([sys.executable, "-m", "autorig.cli", str(mesh), "-o", str(tmp_path / "hero.fbx")],
+                          capture_output=True, text=True, env=env)
+    assert done.returncode == 4 and done.stderr.count("\n") == 1 and "AUTORIG_BLENDER" in done.stderr
+    assert not (tmp_path / "hero.fbx").exists()

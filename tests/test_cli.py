@@ -286,7 +286,7 @@ def _can_write(folder: Path) -> bool:
 
 
 def test_unknown_output_extension_is_a_usage_error(tmp_path, tetra):
-    result = run(str(tetra), "-o", str(tmp_path / "out.fbx"))
+    result = run(str(tetra), "-o", str(tmp_path / "out.abc"))
     assert result.exit_code == 2
     assert "--format" in result.stderr and "Traceback" not in result.output
 

@@ -308,9 +308,9 @@ def test_default_output_path():
     assert default_output_path("/m/hero.obj", "pinocchio") == Path("/m/hero.rigged")
     assert default_output_path("hero.v2.off", "json") == Path("hero.v2.rigged.json")
     with pytest.raises(OutputError, match="unknown output format"):
-        default_output_path("hero.obj", "fbx")
+        default_output_path("hero.obj", "abc")
     with pytest.raises(OutputError, match="unknown output format"):
-        write_rig(make_rig(), "hero.fbx", "fbx")
+        write_rig(make_rig(), "hero.abc", "abc")
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
@@ -402,7 +402,7 @@ def test_check_output_refuses_early_what_write_rig_would_refuse(tmp_path):
                               (tmp_path, "pinocchio", "overwrite the input"),
                               (tmp_path / "none" / "a.glb", "glb", "does not exist"),
                               (tmp_path / "sub", "json", "is a directory"),
-                              (tmp_path / "a.fbx", "fbx", "unknown output format")]:
+                              (tmp_path / "a.abc", "abc", "unknown output format")]:
         (tmp_path / "sub").mkdir(exist_ok=True)
         (tmp_path / "sub" / "x").write_text("x")
         with pytest.raises(OutputError, match=reason):

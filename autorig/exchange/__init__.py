@@ -10,6 +10,8 @@ Formats (``FORMATS``):
 - ``pinocchio`` a folder holding Pinocchio's ``skeleton.out`` and ``attachment.out``
                 (:mod:`autorig.exchange.pinocchio`)
 - ``json``      skeleton, sparse weights, info and timings (:mod:`autorig.exchange.json_format`)
+- ``usda``, ``usdc``, ``usdz``  UsdSkel through usd-core (:mod:`autorig.exchange.usd`, extra ``autorig[usd]``)
+- ``fbx``       FBX through Blender's exporter (:mod:`autorig.exchange.fbx`; Blender on PATH or $AUTORIG_BLENDER)
 
 Every write is atomic: the data goes to a hidden temporary file (or folder) in the destination directory,
 which is then renamed over the destination, so a reader never sees a half-written output and a failed write
@@ -33,9 +35,10 @@ from ..result import Rig
 __all__ = ["FORMATS", "write_rig", "check_output", "default_output_path", "check_rig", "write_file_atomic",
            "write_folder_atomic", "decimal_strings"]
 
-FORMATS = ("glb", "gltf", "pinocchio", "json")
+FORMATS = ("glb", "gltf", "pinocchio", "json", "usda", "usdc", "usdz", "fbx")
 
-_SUFFIXES = {"glb": ".rigged.glb", "gltf": ".rigged.gltf", "pinocchio": ".rigged", "json": ".rigged.json"}
+_SUFFIXES = {"glb": ".rigged.glb", "gltf": ".rigged.gltf", "pinocchio": ".rigged", "json": ".rigged.json",
+             "usda": ".rigged.usda", "usdc": ".rigged.usdc", "usdz": ".rigged.usdz", "fbx": ".rigged.fbx"}
 
 
 def write_rig(rig: Rig, path: str | os.PathLike, fmt: str, *, input_path: str | os.PathLike | None = None
@@ -56,6 +59,12 @@ def write_rig(rig: Rig, path: str | os.PathLike, fmt: str, *, input_path: str | 
     elif fmt == "pinocchio":
         from .pinocchio import write_pinocchio
         write_pinocchio(rig, path)
+    elif fmt in ("usda", "usdc", "usdz"):
+        from .usd import write_usd
+        write_usd(rig, path, fmt)
+    elif fmt == "fbx":
+        from .fbx import write_fbx
+        write_fbx(rig, path)
     else:
         from .json_format import write_json
         write_json(rig, path)
@@ -80,6 +89,12 @@ def check_output(path: str | os.PathLike, fmt: str, *, input_path: str | os.Path
         _check_folder(path, FILES)
     else:
         _check_file(path)
+    if fmt in ("usda", "usdc", "usdz"):
+        from .usd import require_usd
+        require_usd()
+    elif fmt == "fbx":
+        from .fbx import blender_path
+        blender_path()
 
 
 def default_output_path(input_path: str | os.PathLike, fmt: str) -> Path:

@@ -13,6 +13,12 @@ What is written (node index = joint index, so the file reads back in the rig's o
 - one skin over all joints, named after the template, whose ``inverseBindMatrices`` translate by minus each
   joint's position (the bind pose is the rest pose the rig was built in).
 
+A rig with a look (``rig.look``: the input's UVs, colours, normals, materials, textures) is written on the
+look's vertices instead (the input's vertices, then the seam copies), with ``TEXCOORD_n`` and ``COLOR_0``, the
+input's normals where it had them, one mesh node per input mesh, one primitive per material, and the images
+byte for byte in the buffer (:mod:`autorig.exchange.gltf_look`); the scene's ``extras`` say which input vertex
+each seam copy stands for (``autorig_input_vertices``, ``autorig_copies_of``).
+
 A rig re-weighted on a glTF's own skeleton (``rig.joint_nodes``, from ``autorig MESH --skeleton rig.glb``) keeps
 that file's joints instead: nodes ``0 .. J-1`` are its joints with their names and local transforms (matrix or
 TRS) as the file had them, then the non-joint nodes above them, then the mesh node; the skin has the file's
@@ -22,6 +28,7 @@ from __future__ import annotations
 
 import base64
 import binascii
+import json
 import os
 import struct
 from pathlib import Path
@@ -34,11 +41,12 @@ from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, M
 
 from .. import __version__
 from ..errors import InputError
-from ..result import Rig
+from ..result import Look, Rig
 from . import check_rig, parents_first, write_file_atomic
+from .gltf_look import gather_primitives, look_of, write_look
 
-__all__ = ["write_glb", "write_gltf", "glb_bytes", "gltf_bytes", "read_glb", "top4_influences",
-           "vertex_normals"]
+__all__ = ["write_glb", "write_gltf", "glb_bytes", "gltf_bytes", "read_glb", "read_gltf_scene",
+           "top4_influences", "vertex_normals"]
 
 _COMPONENT_DTYPES = {
     pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
@@ -127,14 +135,18 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
     vertices = np.asarray(rig.vertices, dtype=np.float64)
     faces = np.asarray(rig.faces, dtype=np.int64)
 
+    look = rig.look
+    # With a look the file's vertices are the look's (seam copies after the input's vertices, see Look).
+    copy = np.asarray(look.vertex_of) if look is not None else slice(None)
     influences, influence_weights = top4_influences(rig.weights)
+    influences, influence_weights = influences[copy], influence_weights[copy]
     joint_dtype = np.uint8 if J <= 256 else np.uint16
     if rig.joint_nodes is None:
         ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
         ibm[:, :3, 3] = -joints
     else:
         ibm = np.asarray(rig.joint_nodes.inverse_bind, dtype=np.float32)
-    positions = vertices.astype(np.float32)
+    positions = vertices[copy].astype(np.float32)
 
     blob = bytearray()
     views: list[BufferView] = []
@@ -151,9 +163,11 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
 
     position = add(positions, pygltflib.FLOAT, "VEC3", pygltflib.ARRAY_BUFFER,
                    min=[float(x) for x in positions.min(axis=0)], max=[float(x) for x in positions.max(axis=0)])
-    normal = add(vertex_normals(vertices, faces), pygltflib.FLOAT, "VEC3", pygltflib.ARRAY_BUFFER)
-    indices = add(faces.astype(np.uint32).reshape(-1), pygltflib.UNSIGNED_INT, "SCALAR",
-                  pygltflib.ELEMENT_ARRAY_BUFFER)
+    normals = look.normals if look is not None and look.normals is not None else vertex_normals(vertices, faces)[copy]
+    normal = add(np.asarray(normals, dtype=np.float32), pygltflib.FLOAT, "VEC3", pygltflib.ARRAY_BUFFER)
+    if look is None:
+        indices = add(faces.astype(np.uint32).reshape(-1), pygltflib.UNSIGNED_INT, "SCALAR",
+                      pygltflib.ELEMENT_ARRAY_BUFFER)
     joint_slots = add(influences.astype(joint_dtype),
                       pygltflib.UNSIGNED_BYTE if joint_dtype == np.uint8 else pygltflib.UNSIGNED_SHORT, "VEC4",
                       pygltflib.ARRAY_BUFFER)
@@ -175,24 +189,41 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
         nodes = [Node(name=name, children=list(children), **transform)
                  for name, transform, children in zip(source.names, source.transforms, source.children)]
         roots, skeleton_root = list(source.roots), source.skeleton
-    mesh_node = len(nodes)
-    nodes.append(Node(name="mesh", mesh=0, skin=0))
-
-    primitive = Primitive(attributes=Attributes(POSITION=position, NORMAL=normal, JOINTS_0=joint_slots,
-                                                WEIGHTS_0=weight_slots),
-                          indices=indices, mode=pygltflib.TRIANGLES)
+    meshes, scene_extras = [], {}
+    if look is None:
+        mesh_nodes = [len(nodes)]
+        nodes.append(Node(name="mesh", mesh=0, skin=0))
+        meshes.append(Mesh(name="mesh", primitives=[Primitive(
+            attributes=Attributes(POSITION=position, NORMAL=normal, JOINTS_0=joint_slots, WEIGHTS_0=weight_slots),
+            indices=indices, mode=pygltflib.TRIANGLES)]))
     doc = GLTF2(
         asset=Asset(version="2.0", generator=f"autorig {__version__}"),
         scene=0,
-        scenes=[Scene(nodes=roots + [mesh_node])],
+        scenes=[Scene(nodes=roots)],
         nodes=nodes,
-        meshes=[Mesh(name="mesh", primitives=[primitive])],
+        meshes=meshes,
         skins=[Skin(name=(source.skin_name if source else "") or rig.template or "skin",
                     inverseBindMatrices=inverse_bind, joints=list(range(J)), skeleton=skeleton_root)],
         accessors=accessors,
         bufferViews=views,
         buffers=[Buffer(byteLength=len(blob))],
     )
+    if look is not None:
+        def add_bytes(data: bytes) -> int:
+            views.append(BufferView(buffer=0, byteOffset=len(blob), byteLength=len(data)))
+            blob.extend(data + b"\0" * (-len(data) % 4))  # the next view starts 4-aligned again
+            return len(views) - 1
+
+        attributes = {"POSITION": position, "NORMAL": normal, "JOINTS_0": joint_slots, "WEIGHTS_0": weight_slots}
+        mesh_nodes = write_look(doc, look, add, add_bytes, attributes, skin=0)
+        scene_extras = dict(look.extras)
+        if len(copy) > len(vertices):
+            # Which input vertex each seam copy (output vertex V, V+1, ...) stands for; see Look.
+            scene_extras.update(autorig_input_vertices=len(vertices),
+                                autorig_copies_of=[int(v) for v in copy[len(vertices):]])
+    doc.scenes[0].nodes = roots + mesh_nodes
+    doc.scenes[0].extras = scene_extras or None
+    doc.buffers[0].byteLength = len(blob)
     return doc, bytes(blob)
 
 
@@ -211,10 +242,7 @@ def read_glb(path: str | os.PathLike) -> Rig:
     ancestor node that is also a joint of the skin. Weight rows are rescaled to sum to 1.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(f"cannot read {path}: {e.strerror or e}") from None
+    data = _file_bytes(path)
     try:
         return _read(path, data)
     except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
@@ -223,12 +251,7 @@ def read_glb(path: str | os.PathLike) -> Rig:
 
 
 def _read(path: Path, data: bytes) -> Rig:
-    if data[:4] == b"glTF":
-        doc = GLTF2.load_from_bytes(data)
-    else:
-        doc = GLTF2.from_json(data.decode("utf-8"), infer_missing=True)
-    if doc is None:
-        raise ValueError("no JSON chunk")
+    doc = _parse(data)
     buffers = [_buffer_data(doc, b, path) for b in doc.buffers]
     nodes = doc.nodes or []
 
@@ -248,8 +271,9 @@ def _read(path: Path, data: bytes) -> Rig:
     else:
         positions = world[skin_joints][:, :3, 3]
 
-    vertices, faces, weights = _gather_meshes(doc, buffers, [nodes[i] for i in skinned
-                                                               if nodes[i].skin == skin_index], J)
+    mesh_nodes = [i for i in skinned if nodes[i].skin == skin_index]
+    gathered = gather_primitives(doc, buffers, mesh_nodes, None, J, _read_accessor)
+    vertices, faces, weights = gathered.vertices, gathered.faces, gathered.weights
 
     parents = joint_parents(node_parent, skin_joints)
     order, parents = parents_first(parents)
@@ -258,7 +282,125 @@ def _read(path: Path, data: bytes) -> Rig:
     weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
     names = [nodes[skin_joints[j]].name or f"joint_{j}" for j in order]
     return Rig(names=names, parents=parents, joints=positions[order], weights=weights[:, order],
-               vertices=vertices, faces=faces, template=skin.name or "")
+               vertices=vertices, faces=faces, template=skin.name or "",
+               look=look_of(doc, buffers, gathered, mesh_nodes, path) if _has_look(doc, gathered) else None)
+
+
+def read_gltf_scene(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, Look | None]:
+    """A glTF or GLB file as a mesh to rig: (vertices [V, 3], faces [F, 3], its ``Look`` or None).
+
+    The scene is flattened: each mesh node's primitives are moved by the node's world transform, and the
+    nodes are taken in order of their names (a node without one is called by its index), ties in node order;
+    a node's primitives in their order, those sharing their vertex accessors sharing their vertices. Points
+    and lines are ignored. Raises ``InputError`` (one line naming the file) for anything unreadable.
+    """
+    path = Path(path)
+    data = _file_bytes(path)
+    try:
+        doc = _parse(data)
+        buffers = [_buffer_data(doc, b, path) for b in doc.buffers or []]
+        nodes = doc.nodes or []
+        node_parent = node_parents(nodes)
+        world = _world_matrices(nodes, node_parent)
+        in_scene = _scene_nodes(doc, node_parent)
+        mesh_nodes = sorted((i for i in in_scene if nodes[i].mesh is not None),
+                            key=lambda i: (nodes[i].name or str(i), i))
+        if not mesh_nodes:
+            raise InputError(f"{path}: no mesh found (empty, or not a valid glTF file)")
+        try:
+            gathered = gather_primitives(doc, buffers, mesh_nodes, world[mesh_nodes], 0, _read_accessor)
+        except ValueError as e:
+            if str(e) == "no triangles":
+                raise InputError(f"{path}: a point cloud or lines (no faces); autorig needs a surface mesh") from None
+            raise
+        look = (look_of(doc, buffers, gathered, mesh_nodes, path) if _has_look(doc, gathered, normals=True)
+                else None)
+    except InputError:
+        raise
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
+            OSError, UnicodeDecodeError) as e:
+        message = " ".join(str(e).split())[:150] or type(e).__name__
+        raise InputError(f"{path}: cannot read as glTF ({message})") from None
+    return gathered.vertices, gathered.faces, look
+
+
+def _file_bytes(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(f"cannot read {path}: {e.strerror or e}") from None
+
+
+def _parse(data: bytes) -> "_Object":
+    """A .glb's or .gltf's JSON as attributes, as pygltflib's classes name them (``doc.nodes[0].mesh``; None
+    where absent), with ``binary_blob()`` and ``to_json()``. pygltflib decodes every accessor through
+    dataclasses-json, about 2.5 ms each: half a second for a skinned, animated character, more than the rest
+    of reading it. Readers only need the JSON."""
+    blob = None
+    if data[:4] == b"glTF":
+        if len(data) < 20:
+            raise ValueError("truncated GLB header")
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:  # "JSON"
+            raise ValueError("no JSON chunk")
+        text = data[20:20 + length].decode("utf-8")
+        start = 20 + length
+        if start + 8 <= len(data):
+            size, kind = struct.unpack_from("<II", data, start)
+            if kind == 0x004E4942:  # "BIN\0"
+                blob = data[start + 8:start + 8 + size]
+    else:
+        text = data.decode("utf-8")
+    document = json.loads(text)
+    if not isinstance(document, dict):
+        raise ValueError("the JSON is not an object")
+    doc = _objects(document)
+    doc.binary_blob = lambda: blob
+    doc.to_json = lambda: text
+    return doc
+
+
+class _Object:
+    """A JSON object read as attributes; an absent one is None."""
+
+    def __init__(self, fields: dict):
+        self.__dict__.update(fields)
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return None
+
+
+def _objects(value, key: str = ""):
+    # extras and extensions stay plain JSON: they are copied, not read.
+    if isinstance(value, dict) and key not in ("extras", "extensions"):
+        return _Object({k: _objects(v, k) for k, v in value.items()})
+    if isinstance(value, list):
+        return [_objects(v) for v in value]
+    return value
+
+
+def _scene_nodes(doc: GLTF2, node_parent: np.ndarray) -> list[int]:
+    """The nodes of the document's scene (all nodes when it names no scene)."""
+    if not doc.scenes:
+        return list(range(len(doc.nodes or [])))
+    roots = set(doc.scenes[doc.scene or 0].nodes or [])
+    inside = []
+    for i in range(len(doc.nodes or [])):
+        n = i
+        while node_parent[n] >= 0:
+            n = node_parent[n]
+        if n in roots:
+            inside.append(i)
+    return inside
+
+
+def _has_look(doc: GLTF2, gathered, normals: bool = False) -> bool:
+    """Whether there is more to keep than the shape: UVs, colours, materials (or, with ``normals``, normals:
+    an input's own are kept, while a rig's read back are only autorig's, which it computes again)."""
+    return bool(gathered.texcoords or gathered.colors is not None or doc.materials
+                or (normals and gathered.normals is not None))
 
 
 def node_parents(nodes: list[Node]) -> np.ndarray:
@@ -365,42 +507,3 @@ def _world_matrices(nodes: list[Node], node_parent: np.ndarray) -> np.ndarray:
             world[n] = _local_matrix(nodes[n]) if parent < 0 else world[parent] @ _local_matrix(nodes[n])
             done[n] = True
     return world
-
-
-def _gather_meshes(doc: GLTF2, buffers: list[bytes], mesh_nodes: list[Node], J: int
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """vertices [V, 3], faces [F, 3] and dense weights [V, J] of all triangle primitives of ``mesh_nodes``."""
-    vertices, faces, weights = [], [], []
-    first_vertex: dict[tuple, int] = {}
-    count = 0
-    for node in mesh_nodes:
-        for primitive in doc.meshes[node.mesh].primitives:
-            if primitive.mode not in (None, pygltflib.TRIANGLES):
-                continue
-            attributes = {k: v for k, v in vars(primitive.attributes).items() if v is not None}
-            sets = sorted(k for k in attributes if k.startswith("JOINTS_"))
-            key = (attributes["POSITION"],) + tuple((attributes[k], attributes.get("WEIGHTS_" + k[7:]))
-                                                    for k in sets)
-            if key not in first_vertex:
-                first_vertex[key] = count
-                position = _read_accessor(doc, buffers, attributes["POSITION"])
-                dense = np.zeros((len(position), J))
-                for k in sets:
-                    slots = _read_accessor(doc, buffers, attributes[k])
-                    amounts = _read_accessor(doc, buffers, attributes["WEIGHTS_" + k[7:]])
-                    rows = np.repeat(np.arange(len(position)), slots.shape[1])
-                    np.add.at(dense, (rows, slots.ravel()), amounts.ravel())
-                vertices.append(position)
-                weights.append(dense)
-                count += len(position)
-            n = doc.accessors[attributes["POSITION"]].count
-            if primitive.indices is None:
-                corners = np.arange(n - n % 3)
-            else:
-                corners = _read_accessor(doc, buffers, primitive.indices).ravel()
-            if corners.size and (corners.min() < 0 or corners.max() >= n):
-                raise ValueError("a primitive's indices point past its vertices")
-            faces.append(corners[: corners.size - corners.size % 3].reshape(-1, 3) + first_vertex[key])
-    if not vertices:
-        raise ValueError("the skinned mesh has no triangles")
-    return (np.concatenate(vertices), np.concatenate(faces).astype(np.int64), np.concatenate(weights))

@@ -181,14 +181,9 @@ def _from_gltf(data: bytes, path: Path) -> Skeleton:
 
 
 def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
-    from pygltflib import GLTF2
+    from .gltf import _buffer_data, _parse, _read_accessor, _world_matrices, joint_parents, node_parents
 
-    from .gltf import _buffer_data, _read_accessor, _world_matrices, joint_parents, node_parents
-
-    doc = GLTF2.load_from_bytes(data) if data[:4] == b"glTF" else GLTF2.from_json(data.decode("utf-8"),
-                                                                                  infer_missing=True)
-    if doc is None:
-        raise ValueError("no JSON chunk")
+    doc = _parse(data)
     nodes = doc.nodes or []
     if not doc.skins:
         raise SkeletonError(f"skeleton {path}: the glTF has no skin (no joints to weight)")
