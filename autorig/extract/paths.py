@@ -49,10 +49,13 @@ class PathTree:
     depth   [P] EDM at each point (voxels)
     paths   [K] int64 arrays of point indices: path k runs from the point where it joins the tree (the heart or
             a point of an earlier path) out to its extreme point; paths in the order they were grown
+    bases   [K] for each path, the index in it of its limb's base: the first point outside the parts grown
+            before it (the body, for a limb leaving the body); before it the path only crosses the body
     """
     points: np.ndarray
     depth: np.ndarray
     paths: list[np.ndarray]
+    bases: list[int]
 
 
 def path_tree(graph: VoxelGraph) -> PathTree:
@@ -64,7 +67,8 @@ def path_tree(graph: VoxelGraph) -> PathTree:
     if len(extremes) == 0:
         raise RigFailedError(f"the shape's medial surface is {len(graph.voxels)} voxel(s) across, too small to "
                              f"grow a skeleton on: use more voxels")
-    return smooth_tree(graph, heart, grow_paths(graph, heart, extremes))
+    paths, bases = grow_paths(graph, heart, extremes)
+    return smooth_tree(graph, heart, paths, bases)
 
 
 def extreme_points(graph: VoxelGraph, geodesic: np.ndarray) -> np.ndarray:
@@ -79,9 +83,10 @@ def extreme_points(graph: VoxelGraph, geodesic: np.ndarray) -> np.ndarray:
     return candidates[np.lexsort((candidates, -geodesic[candidates]))]
 
 
-def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> list[np.ndarray]:
+def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> tuple[list[np.ndarray], list[int]]:
     """Centralised paths [K] (node index arrays, from the tree out to the extreme point) of the extreme points
-    (extremes [E], in the order to try them) that pass the coverage test (see the module docstring)."""
+    (extremes [E], in the order to try them) that pass the coverage test, and each one's base: the index in it
+    where the limb leaves the parts already in the tree (see the module docstring)."""
     lengths = graph.matrix(graph.lengths)
     costs = graph.matrix(graph.centralised_costs())
     balls = cKDTree(graph.voxels)
@@ -91,6 +96,8 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> list[np.n
     covered[_covered_by(balls, graph, np.array([heart]))] = True
     branch_points = [heart]
     paths: list[np.ndarray] = []
+    bases: list[int] = []
+    body_of = np.full(len(graph.voxels), -1, dtype=np.int64)   # node -> the path whose body part holds it
     reach = route = None
     for tip in extremes:
         # The farthest extreme point always grows a path, so that even a limbless blob gets one bone.
@@ -100,15 +107,26 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> list[np.n
             reach = dijkstra(lengths, indices=np.flatnonzero(covered), min_only=True)
             _, route, _ = dijkstra(costs, indices=np.flatnonzero(in_tree), min_only=True, return_predecessors=True)
         path = _walk(route, tip)[::-1]                        # from the tree out to the tip
-        if paths and reach[tip] < max(NOISE_LENGTH * graph.depth[path[0]], MIN_REACH):
+        # The limb leaves the parts already in the tree at its first voxel their balls do not cover: its
+        # thickness there, not the body's where the path joins, says whether it stands out or is a bump.
+        base = int(np.argmin(covered[path]))
+        if paths and reach[tip] < max(NOISE_LENGTH * graph.depth[path[base]], MIN_REACH):
             continue
-        path[0] = _snap(graph, path[0], np.array(branch_points))
-        branch_points.append(int(path[0]))
+        if body_of[path[0]] >= 0:
+            # It joins an earlier path inside the body that path crosses: hang it where that path starts (the
+            # heart, or a joint of a limb), not from a joint of its own in the middle of the body.
+            path = np.concatenate([[paths[body_of[path[0]]][0]], path[max(base, 1):]])
+            base = 1
+        else:
+            path[0] = _snap(graph, path[0], np.array(branch_points))
+        branch_points += [int(path[0]), int(path[base])]
+        body_of[path[1:base]] = len(paths)
         paths.append(path)
+        bases.append(base)
         in_tree[path] = True
         covered[_covered_by(balls, graph, path)] = True
         reach = None                                         # the tree has changed: recompute when needed
-    return paths
+    return paths, bases
 
 
 def _covered_by(balls: cKDTree, graph: VoxelGraph, nodes: np.ndarray) -> np.ndarray:
@@ -132,7 +150,7 @@ def _snap(graph: VoxelGraph, node: int, branch_points: np.ndarray) -> int:
     return int(branch_points[k]) if gap[k] <= graph.depth[node] else node
 
 
-def smooth_tree(graph: VoxelGraph, heart: int, paths: list[np.ndarray]) -> PathTree:
+def smooth_tree(graph: VoxelGraph, heart: int, paths: list[np.ndarray], bases: list[int]) -> PathTree:
     """Renumber the tree's nodes (heart first, then each path's new nodes in order) and smooth every path with
     its ends held fixed (SMOOTH_ITERATIONS passes of (1/4, 1/2, 1/4) averaging), no point moving further than
     BALL_FRACTION of its depth from its voxel's centre."""
@@ -145,11 +163,13 @@ def smooth_tree(graph: VoxelGraph, heart: int, paths: list[np.ndarray]) -> PathT
     reach = BALL_FRACTION * graph.depth[order]
     points = centres.copy()
     tree_paths = [index[p] for p in paths]
-    for path in tree_paths:
-        q, home, limit = points[path], centres[path[1:-1]], reach[path[1:-1], None]
-        for _ in range(SMOOTH_ITERATIONS):
+    # The base is held too: the crossing of the body before it is one straight bone, whose far end (a rerouted
+    # path's jump from where it hangs) must not drag the limb's first joint back into the body.
+    for piece in [part for path, base in zip(tree_paths, bases) for part in (path[:base + 1], path[base:])]:
+        q, home, limit = points[piece], centres[piece[1:-1]], reach[piece[1:-1], None]
+        for _ in range(SMOOTH_ITERATIONS if len(piece) > 2 else 0):
             moved = 0.25 * q[:-2] + 0.5 * q[1:-1] + 0.25 * q[2:] - home
             length = np.linalg.norm(moved, axis=1, keepdims=True)
             q[1:-1] = home + moved * np.minimum(1.0, limit / np.maximum(length, 1e-12))
-        points[path[1:-1]] = q[1:-1]
-    return PathTree(points, graph.depth[order], tree_paths)
+        points[piece[1:-1]] = q[1:-1]
+    return PathTree(points, graph.depth[order], tree_paths, list(bases))

@@ -70,7 +70,8 @@ def distance_map(grid: VoxelGrid, vertices: np.ndarray, faces: np.ndarray) -> np
     by up to ~0.9 voxel depending on how the surface lies across the grid, and the medial test, which compares
     neighbouring depths, turns those steps into spurious medial voxels all over the surface (at 96 voxels:
     65 medial pieces instead of 9 on the octopus, 157 instead of 38 on the armadillo). It costs ~0.7 s on
-    60k inside voxels of a 86k-triangle mesh, against 0.06 s.
+    60k inside voxels of a 86k-triangle mesh, against 0.06 s. The distance is to the solid's boundary only
+    (``deepest_in_parts``): in a model of overlapping parts the faces buried in another part are not surface.
     """
     import igl
 
@@ -81,4 +82,46 @@ def distance_map(grid: VoxelGrid, vertices: np.ndarray, faces: np.ndarray) -> np
     squared, _, _ = tree.squared_distance(V, F, grid.centres(voxels))
     depth = np.zeros(grid.inside.shape)
     depth[tuple(voxels.T)] = np.sqrt(squared) / grid.step
+    return deepest_in_parts(depth, grid, V, F)
+
+
+def deepest_in_parts(depth: np.ndarray, grid: VoxelGrid, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """depth [X, Y, Z] (the distance to every face, in voxels) raised, inside each separate part of a mesh whose
+    parts overlap, to the distance to that part's own surface. In a model of overlapping parts (a leg pushed
+    into a body) the surface of one part inside another is no surface: its distance would cut the depth inside
+    the body down to the buried leg and scatter medial voxels all through it. The deepest any part holds a
+    voxel is the distance to the union's surface but near the seams, where it is a little less."""
+    import igl
+
+    V, F = np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64)
+    count, part = _vertex_parts(len(V), F)
+    # A surface point buried in another part has a winding number of 1/2 from its own part and 1 more.
+    if count < 2 or not np.any(np.abs(igl.fast_winding_number(V, F, V)) >= 1.0):
+        return depth
+    voxels = np.argwhere(grid.inside)
+    centres = grid.centres(voxels)
+    face_part = part[F[:, 0]]
+    for k in range(count):
+        own = F[face_part == k]
+        if len(own) < 4:
+            continue
+        corners = V[np.unique(own)]
+        near = np.flatnonzero(np.all((centres >= corners.min(axis=0)) & (centres <= corners.max(axis=0)), axis=1))
+        inside = near[np.abs(igl.fast_winding_number(V, own, centres[near])) >= 0.5]
+        if len(inside) == 0:
+            continue
+        tree = igl.AABB()
+        tree.init(V, own)
+        squared, _, _ = tree.squared_distance(V, own, centres[inside])
+        index = tuple(voxels[inside].T)
+        depth[index] = np.maximum(depth[index], np.sqrt(squared) / grid.step)
     return depth
+
+
+def _vertex_parts(n: int, faces: np.ndarray) -> tuple[int, np.ndarray]:
+    """(number of parts, part of each of the n vertices [n]): the connected pieces of the faces [F, 3]."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]]])
+    return connected_components(coo_matrix((np.ones(len(edges)), tuple(edges.T)), shape=(n, n)), directed=False)
