@@ -84,13 +84,13 @@ def split_chain(points: np.ndarray, depth: np.ndarray, forced: np.ndarray, max_s
         keep = sorted({*keep, base})
     while len(keep) - 1 < budget:
         # Each bone's error in units of the depth along it: how far the path strays, for the limb's size.
-        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), 1e-9) if a >= base else 0.0
+        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), 1e-9) if b > base + 1 else 0.0
                   for a, b in zip(keep[:-1], keep[1:])]
         worst = int(np.argmax(scores))
         a, b = keep[worst], keep[worst + 1]
         if scores[worst] <= SPLIT_TOLERANCE:
             break
-        k = best_split(points, a, b, min_bone)
+        k = best_split(points, a, b, min_bone, first=base + 1)
         if k is None:
             break
         keep.insert(worst + 1, k)
@@ -102,9 +102,9 @@ def segment_error(points: np.ndarray, a: int, b: int) -> float:
     return float(_distances_to_segment(points[a:b + 1], points[a], points[b]).max())
 
 
-def best_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0) -> int | None:
+def best_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0, first: int = 0) -> int | None:
     """The index k in (a, b) that minimises max(error of bone a -> k, error of bone k -> b), among those at
-    least min_bone from both ends (None if there is none)."""
+    least min_bone from both ends and not before ``first`` (None if there is none)."""
     q = points[a:b + 1]
     m = len(q)
     # head[i, k]: distance of point i from the bone a -> k, counted for i <= k; tail likewise for k -> b.
@@ -114,6 +114,7 @@ def best_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0) -> int
     worst = np.maximum(np.where(i <= k, head, 0.0).max(axis=0), np.where(i >= k, tail, 0.0).max(axis=0))
     allowed = (np.linalg.norm(q - q[0], axis=1) >= min_bone) & (np.linalg.norm(q - q[-1], axis=1) >= min_bone)
     allowed[[0, -1]] = False
+    allowed[:max(first - a, 0)] = False
     if not allowed.any():
         return None
     return a + int(np.argmin(np.where(allowed, worst, np.inf)))

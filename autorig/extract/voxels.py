@@ -14,6 +14,8 @@ import numpy as np
 
 from ..errors import RigFailedError
 
+BLOCK = 4    # voxels along a block's side in the inside test
+
 
 @dataclass(frozen=True)
 class VoxelGrid:
@@ -47,17 +49,43 @@ def voxelize(vertices: np.ndarray, faces: np.ndarray, resolution: int) -> VoxelG
     counts = np.ceil((hi - lo) / step).astype(np.int64) + 2          # +1 cell of margin on each side
     # Centre the box on the mesh, so a symmetric mesh gets a symmetric voxelization.
     origin = (lo + hi) / 2 - step * (counts - 1) / 2
-    axes = [origin[k] + step * np.arange(counts[k]) for k in range(3)]
-    centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    winding = igl.fast_winding_number(np.ascontiguousarray(vertices, dtype=np.float64),
-                                      np.ascontiguousarray(faces, dtype=np.int64), centres)
-    inside = (np.abs(winding) >= 0.5).reshape(tuple(counts))
+    inside = _inside(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64),
+                     origin, step, counts)
     # The margin must stay empty; only a winding number gone astray (a wildly open mesh) could fill it.
     inside[[0, -1], :, :] = inside[:, [0, -1], :] = inside[:, :, [0, -1]] = False
     if not inside.any():
         raise RigFailedError(f"no voxel centre is inside the mesh at {resolution} voxels: it is thinner than a "
                              f"voxel, or not closed; use more voxels")
     return VoxelGrid(origin, step, inside)
+
+
+def _inside(vertices: np.ndarray, faces: np.ndarray, origin: np.ndarray, step: float, counts: np.ndarray) -> np.ndarray:
+    """[X, Y, Z] bool (counts [3]): |winding number| >= 1/2 at each voxel centre (origin [3], step).
+
+    The winding number is evaluated at every voxel only in blocks of BLOCK^3 voxels that the surface passes
+    near; a block further from every face than its half-diagonal is all inside or all outside, and one number
+    at its centre decides it. Most of a creature's box is such blocks (~5x fewer evaluations at 96 voxels)."""
+    import igl
+
+    blocks = -(-counts // BLOCK)
+    block_axes = [origin[k] + step * (BLOCK * np.arange(blocks[k]) + (BLOCK - 1) / 2) for k in range(3)]
+    block_centres = np.stack(np.meshgrid(*block_axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    tree = igl.AABB()
+    tree.init(vertices, faces)
+    squared, _, _ = tree.squared_distance(vertices, faces, block_centres)
+    # Half the block's diagonal, and a little more so that rounding never misjudges a block the surface grazes.
+    plain = squared > (0.5 * np.sqrt(3) * BLOCK * step * 1.01) ** 2
+    block_inside = np.zeros(len(block_centres), dtype=bool)
+    block_inside[plain] = np.abs(igl.fast_winding_number(vertices, faces, block_centres[plain])) >= 0.5
+    inside = np.repeat(np.repeat(np.repeat(block_inside.reshape(tuple(blocks)), BLOCK, 0), BLOCK, 1), BLOCK, 2)
+    inside = inside[:counts[0], :counts[1], :counts[2]]
+    # Every voxel of the blocks near the surface.
+    near = np.zeros(tuple(blocks), dtype=bool)
+    near.flat[np.flatnonzero(~plain)] = True
+    fine = np.repeat(np.repeat(np.repeat(near, BLOCK, 0), BLOCK, 1), BLOCK, 2)[:counts[0], :counts[1], :counts[2]]
+    voxels = np.argwhere(fine)
+    inside[tuple(voxels.T)] = np.abs(igl.fast_winding_number(vertices, faces, origin + step * voxels)) >= 0.5
+    return inside
 
 
 def distance_map(grid: VoxelGrid, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
