@@ -37,6 +37,7 @@ from .connect import VoxelGraph, most_central
 
 NOISE_LENGTH = 1.5       # a limb reaches beyond the covered part at least this many depths of where it joins
 MIN_REACH = 4.5          # ... and at least this many voxels
+BODY_DEPTH = 1.5         # a limb's path crosses the body where it is this many times deeper than the limb
 SMOOTH_ITERATIONS = 8    # passes of (1/4, 1/2, 1/4) averaging along each path
 BALL_FRACTION = 0.9      # smoothing moves a point by at most this fraction of its depth
 
@@ -87,7 +88,6 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> tuple[lis
     """Centralised paths [K] (node index arrays, from the tree out to the extreme point) of the extreme points
     (extremes [E], in the order to try them) that pass the coverage test, and each one's base: the index in it
     where the limb leaves the parts already in the tree (see the module docstring)."""
-    lengths = graph.matrix(graph.lengths)
     costs = graph.matrix(graph.centralised_costs())
     balls = cKDTree(graph.voxels)
     in_tree = np.zeros(len(graph.voxels), dtype=bool)
@@ -98,19 +98,18 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> tuple[lis
     paths: list[np.ndarray] = []
     bases: list[int] = []
     body_of = np.full(len(graph.voxels), -1, dtype=np.int64)   # node -> the path whose body part holds it
-    reach = route = None
+    route = None
     for tip in extremes:
         # The farthest extreme point always grows a path, so that even a limbless blob gets one bone.
         if paths and covered[tip]:
             continue
-        if reach is None:
-            reach = dijkstra(lengths, indices=np.flatnonzero(covered), min_only=True)
+        if route is None:
             _, route, _ = dijkstra(costs, indices=np.flatnonzero(in_tree), min_only=True, return_predecessors=True)
         path = _walk(route, tip)[::-1]                        # from the tree out to the tip
-        # The limb leaves the parts already in the tree at its first voxel their balls do not cover: its
-        # thickness there, not the body's where the path joins, says whether it stands out or is a bump.
-        base = int(np.argmin(covered[path]))
-        if paths and reach[tip] < max(NOISE_LENGTH * graph.depth[path[base]], MIN_REACH):
+        base = limb_base(graph, path, covered[path])
+        # Its own thickness beyond the body, not the body's where the path joins, says whether it stands out.
+        steps = np.linalg.norm(np.diff(graph.voxels[path[base:]], axis=0), axis=1)
+        if paths and steps.sum() < max(NOISE_LENGTH * graph.depth[path[base:]].max(), MIN_REACH):
             continue
         if body_of[path[0]] >= 0:
             # It joins an earlier path inside the body that path crosses: hang it where that path starts (the
@@ -125,8 +124,25 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> tuple[lis
         bases.append(base)
         in_tree[path] = True
         covered[_covered_by(balls, graph, path)] = True
-        reach = None                                         # the tree has changed: recompute when needed
+        route = None                                         # the tree has changed: recompute when needed
     return paths, bases
+
+
+def limb_base(graph: VoxelGraph, path: np.ndarray, covered: np.ndarray) -> int:
+    """The index in path [L] (nodes, from the tree out to a tip; covered [L]: inside the balls of the tree so
+    far) where its limb leaves the body: past the voxels the tree covers, and past the balls of the path's own
+    voxels that are BODY_DEPTH times deeper than the limb (the median depth beyond the tree), which are the
+    body it crosses on the way out. Never the tip itself."""
+    first = int(np.argmin(covered))
+    depth = graph.depth[path]
+    thick = np.flatnonzero(depth > BODY_DEPTH * np.median(depth[first:]))
+    if len(thick):
+        points = graph.voxels[path].astype(np.float64)
+        gap = np.linalg.norm(points[first:, None] - points[None, thick], axis=2)          # [L - first, T]
+        inside = np.flatnonzero((gap < depth[thick][None]).any(axis=1))
+        if len(inside):
+            first += int(inside.max()) + 1
+    return min(first, len(path) - 2) if len(path) > 1 else 0
 
 
 def _covered_by(balls: cKDTree, graph: VoxelGraph, nodes: np.ndarray) -> np.ndarray:

@@ -29,10 +29,14 @@ class BranchedShape:
     faces     [F, 3] int64 triangles, counter-clockwise seen from outside
     tips      [N, 3] float64 the end of each branch's axis: the centre of its rounded cap, inside the surface
               by the cap's radius
+    bases     [N, 3] float64 where each branch's axis leaves the body's surface, or None (not a creature)
+    straight  [N] bool whether each branch is straight, or None
     """
     vertices: np.ndarray
     faces: np.ndarray
     tips: np.ndarray
+    bases: np.ndarray | None = None
+    straight: np.ndarray | None = None
 
 
 def star(arms: int = 5, resolution: int = 64) -> BranchedShape:
@@ -217,8 +221,65 @@ def creature(spec: CreatureSpec, faces: int = 5000) -> BranchedShape:
     if len(triangles) > faces:
         vertices, triangles = fast_simplification.simplify(vertices, triangles.astype(np.int32),
                                                             target_reduction=1 - faces / len(triangles))
+    bases = np.array([_surface(body[0], np.array(limb.direction)) for limb in spec.limbs]).reshape(-1, 3)
     return BranchedShape(np.asarray(vertices, dtype=np.float64), np.asarray(triangles, dtype=np.int64),
-                         np.array(tips).reshape(-1, 3))
+                         np.array(tips).reshape(-1, 3), bases, np.array([limb.bend == 0 for limb in spec.limbs]))
+
+
+@dataclass(frozen=True)
+class LimbScore:
+    """How a skeleton's chains match a shape's known branches.
+
+    limbs, chains    branches of the shape, chains of the skeleton (``_end`` joints)
+    found            branches whose tip has a chain end of its own near it (mutually nearest, within
+                     TIP_TOLERANCE of the shape's longest side)
+    shortest_bone    the shortest bone over the diagonal of the mesh's box
+    start_gap        [found] for each found branch, voxels (DEFAULT_VOXELS along the longest side) from where
+                     it leaves the body to the nearest joint of the start of its chain (its first joint or
+                     the one it hangs from); empty without ``bases``
+    straight_inner   [straight found] inner joints (all but the tip) of each straight branch's chain
+    """
+    limbs: int
+    chains: int
+    found: int
+    shortest_bone: float
+    start_gap: np.ndarray
+    straight_inner: np.ndarray
+
+    @property
+    def exact(self) -> bool:
+        """One chain per branch, and no other."""
+        return self.found == self.limbs == self.chains
+
+
+TIP_TOLERANCE = 0.08
+
+
+def score_limbs(shape: BranchedShape, names: list[str], parents: np.ndarray, joints: np.ndarray) -> LimbScore:
+    """Score a skeleton (joint names, parents [J], joints [J, 3] in the shape's frame) against ``shape``."""
+    parents = np.asarray(parents)
+    ends = np.array([j for j, n in enumerate(names) if n.endswith("_end")], dtype=np.int64)
+    size = float(np.ptp(shape.vertices, axis=0).max())
+    diagonal = float(np.linalg.norm(np.ptp(shape.vertices, axis=0)))
+    bones = np.linalg.norm(joints[1:] - joints[parents[1:]], axis=1)
+    found_ends = {}
+    if len(ends) and len(shape.tips):
+        gap = np.linalg.norm(shape.tips[:, None] - joints[ends][None], axis=2)        # [tips, ends]
+        for t, e in enumerate(gap.argmin(axis=1)):
+            if gap[:, e].argmin() == t and gap[t, e] < TIP_TOLERANCE * size:
+                found_ends[t] = int(ends[e])
+    starts, inner = [], []
+    for t, end in found_ends.items():
+        chain = names[end].split("_")[0]
+        members = [j for j, n in enumerate(names) if n.split("_")[0] == chain]
+        first = min(members)
+        if shape.bases is not None:
+            near = joints[[first, parents[first]]]
+            starts.append(float(np.linalg.norm(near - shape.bases[t], axis=1).min()) / size * DEFAULT_VOXELS)
+        if shape.straight is not None and shape.straight[t]:
+            inner.append(len(members) - 1)
+    return LimbScore(len(shape.tips), len(ends), len(found_ends), float(bones.min() / diagonal) if len(bones) else 0.0,
+                     np.array(starts), np.array(inner, dtype=np.int64))
 
 
 def _limb(body, limb: LimbSpec, voxel: float) -> tuple[list, np.ndarray]:
