@@ -1,4 +1,5 @@
-"""A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it.
+"""A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it
+(for a flat shape, a top view and the wider of the two).
 
     from autorig.preview import render_preview
     render_preview(rig, "hero.png")                  # the rig's own up/front (rig.info), else +y up, facing +z
@@ -39,7 +40,8 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     up, front  the rig's axes (x|y|z|-x|-y|-z); default ``rig.info``'s ``up``/``front``, else y and z
     title      the heading; default names the template and counts joints and vertices
     returns    {"front": box, "side": box}: where each view is in the picture, as pixel (left, top, right,
-               bottom), origin top-left
+               bottom), origin top-left; a flat shape (lower than 0.6 of its narrower horizontal extent: a
+               spider, a star lying down) is seen from above instead, {"top": box, "front" or "side": box}
     Raises ``ImportError`` without matplotlib, ``OutputError`` if ``path`` cannot be written.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -55,12 +57,9 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     colours = _joint_colours(len(rig.names))
     face_joint = np.argmax(weights[faces].sum(axis=1), axis=1)   # [F] the joint with most weight on the face
 
-    # Each view: (name, heading, screen x axis, depth axis pointing at the camera) in the frame above.
-    views = [("front", "front", np.array([1.0, 0, 0]), np.array([0, 0, 1.0])),
-             ("side", "side (right)", np.array([0, 0, 1.0]), np.array([-1.0, 0, 0]))]
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    height = max(hi[1] - lo[1], 1e-12)
-    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ axis)) / height for _, _, axis, _ in views]
+    views = _choose_views(vertices)
+    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ x)) / max(float(np.ptp(vertices @ y)), 1e-12)
+               for _, _, x, y, _ in views]
     # Long, low shapes would make a very wide picture: shrink both views to fit the width instead.
     shrink = min(1.0, _MAX_VIEWS_WIDTH / sum(natural))
     view_height = max(_VIEW_HEIGHT * shrink, 2.5)
@@ -77,9 +76,9 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
                     fontsize=14, fontweight="bold")
 
     axes = {}
-    for column, (name, heading, screen_x, toward_camera) in enumerate(views):
+    for column, (name, heading, screen_x, screen_y, toward_camera) in enumerate(views):
         ax = figure.add_subplot(grid[0, column])
-        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera)
+        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera, screen_y)
         ax.set_title(heading, fontsize=11)
         axes[name] = ax
     _draw_legend(figure.add_subplot(grid[0, 2]), rig.names, colours, shown, legend_columns)
@@ -96,17 +95,34 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     return boxes
 
 
-def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, screen_x, toward_camera) -> None:
+# Each view: (name, heading, screen x axis, screen y axis, axis pointing at the camera) in the character's
+# frame (left, up, front).
+_FRONT = ("front", "front", np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0]))
+_SIDE = ("side", "side (right)", np.array([0, 0, 1.0]), np.array([0, 1.0, 0]), np.array([-1.0, 0, 0]))
+_TOP = ("top", "top (front up)", np.array([-1.0, 0, 0]), np.array([0, 0, 1.0]), np.array([0, 1.0, 0]))
+_FLAT = 0.6   # a shape lower than this share of its narrower horizontal extent is flat: seen from above
+
+
+def _choose_views(vertices: np.ndarray) -> list[tuple]:
+    """The two views to draw of vertices [V, 3] (character's frame): front and side; for a flat shape (a
+    spider, a star lying down), whose limbs would overlap in both, the top view and the wider of the two."""
+    left, up, front = np.ptp(vertices, axis=0)
+    if up < _FLAT * min(left, front):
+        return [_TOP, _FRONT if left >= front else _SIDE]
+    return [_FRONT, _SIDE]
+
+
+def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, screen_x, toward_camera,
+               up=np.array([0.0, 1.0, 0.0])) -> None:
     """One orthographic view: shaded faces far to near, then bones, joints and labels over them.
 
     vertices [V, 3], joints [J, 3]  in the character's frame (left, up, front)
     faces [F, 3], face_joint [F]    triangles and the joint whose colour (colours [J, 3]) each one takes
-    screen_x, toward_camera [3]     the frame directions drawn rightwards and pointing at the viewer
+    screen_x, toward_camera, up [3] the frame directions drawn rightwards, pointing at the viewer and upwards
     """
     from matplotlib import patheffects
     from matplotlib.collections import LineCollection, PolyCollection
 
-    up = np.array([0.0, 1.0, 0.0])
     screen = np.stack([vertices @ screen_x, vertices @ up], axis=1)        # [V, 2]
     corners = vertices[faces]                                              # [F, 3, 3]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])

@@ -11,16 +11,17 @@ On the connected DMS (``connect.connected_medial``):
 * each extreme point grows a centralised path back to the tree: the route minimising W = sum of 1/d^3 over its
   voxels (d the EDM), which keeps to the middle of the volume. The first path, from the farthest extreme
   point, runs to the heart and is always kept (so a limbless blob still gets one bone);
-* the voxels of a path cover the DMS voxels inside their inscribed balls (radius = their EDM). An extreme point
-  is not used when its shortest route over the DMS to a covered voxel (how far it reaches beyond the parts
-  already in the tree) is shorter than NOISE_LENGTH times the depth where its path would join the tree, or
-  shorter than MIN_REACH voxels: it is a bump or a flat rim of the part it sits on, or a ripple of the
-  voxelization, not a limb. (On the five shared test meshes at 96 voxels, the limbs kept reach 1.8 (a
-  finger) to 6 (legs, heads, tentacles) depths of where they join; the points dropped by the first rule
-  reach at most 1.3, and those dropped by the second, within a part a voxel or two deep, up to 5.6 depths.)
-* a path that would join the tree within the inscribed ball of an existing branch point (the heart or where
-  an earlier path joined) joins at that branch point instead, so limbs leaving the body close together share
-  one joint rather than leaving a string of tiny bones;
+* the voxels of a path cover the DMS voxels inside their inscribed balls (radius = their EDM). A path's limb
+  base (``limb_base``) is where it leaves the body: past the voxels the tree already covers, and past those
+  whose balls lie inside the ball of one of its own voxels BODY_DEPTH times deeper than the limb beyond (the
+  body it crosses on the way out). An extreme point is not used when its path reaches less than NOISE_LENGTH times the limb's own
+  greatest depth beyond its base, or less than MIN_REACH voxels (Wade & Parent's noise threshold, scaled by
+  the local thickness where the limb attaches rather than by the body's): it is a bump, a flat rim of the
+  part it sits on, or a ripple of the voxelization, not a limb;
+* a path that would join the tree where an earlier path crosses the body (before that path's base) hangs
+  from where that path starts instead (the heart, or a joint on a limb), so the body holds no joints of its
+  own; one that would join within the inscribed ball of an existing branch point (or limb base) joins there,
+  so limbs leaving close together share one joint rather than leaving a string of tiny bones;
 * the paths, jagged from the voxel steps, are smoothed with their ends held fixed, each point staying inside
   the inscribed ball of its voxel.
 """
@@ -130,16 +131,16 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> tuple[lis
 
 def limb_base(graph: VoxelGraph, path: np.ndarray, covered: np.ndarray) -> int:
     """The index in path [L] (nodes, from the tree out to a tip; covered [L]: inside the balls of the tree so
-    far) where its limb leaves the body: past the voxels the tree covers, and past the balls of the path's own
-    voxels that are BODY_DEPTH times deeper than the limb (the median depth beyond the tree), which are the
-    body it crosses on the way out. Never the tip itself."""
+    far) where its limb leaves the body: past the voxels the tree covers, and past the voxels whose inscribed
+    balls lie inside the ball of one of the path's voxels BODY_DEPTH times deeper than the limb (the median
+    depth beyond the tree): that is the body it crosses on the way out. Never the tip itself."""
     first = int(np.argmin(covered))
     depth = graph.depth[path]
     thick = np.flatnonzero(depth > BODY_DEPTH * np.median(depth[first:]))
     if len(thick):
         points = graph.voxels[path].astype(np.float64)
         gap = np.linalg.norm(points[first:, None] - points[None, thick], axis=2)          # [L - first, T]
-        inside = np.flatnonzero((gap < depth[thick][None]).any(axis=1))
+        inside = np.flatnonzero((gap + depth[first:, None] <= depth[thick][None]).any(axis=1))
         if len(inside):
             first += int(inside.max()) + 1
     return min(first, len(path) - 2) if len(path) > 1 else 0

@@ -1,14 +1,16 @@
 """Stage 5 of the template-free skeleton: the control skeleton (Wade & Parent 2002, section 5).
 
 Each path of the path tree becomes one chain of joints. A chain always has joints at its two ends and where
-later paths join it; between them it is split recursively where a straight bone would fit it worst: the split
-point is the path point that gives the smallest maximum error of the two bones it makes (the error of a bone
-being the largest distance of the path points it replaces from it), which on a single bend is the bend. The
-bone with the largest error is split first, until every bone's error is below SPLIT_TOLERANCE times the mean
-depth of its stretch of path (a bend shallower than that is not worth a joint) or ``max_segments`` - 1 splits
-have been made: a chain has at most ``max_segments`` bones plus one more for each joint where another chain
-hangs (those must be joints, and a chain that many others hang from, like the first one through a spider's
-body, still needs joints along its own limb).
+later paths join it, and one at its limb's base (where the limb leaves the body: the crossing of the body
+before it is one bone) when that is at least the shortest bone from the joints around it and the budget
+allows. Beyond the base it is split recursively where a straight bone would fit it worst: the split point is
+the path point that gives the smallest maximum error of the two bones it makes (the error of a bone being the
+largest distance of the path points it replaces from it), which on a single bend is the bend, among the
+points at least the shortest bone (MIN_BONE_*: relative to the limb's thickness, its length and the shape's
+diagonal) from both ends. The bone with the largest error is split first, until every bone's error is below
+SPLIT_TOLERANCE times the mean depth of its stretch of path (a bend shallower than that is not worth a joint,
+so a straight limb keeps its base and its tip) or ``max_segments`` - 1 splits have been made: a chain has at
+most ``max_segments`` bones plus one more for each joint where another chain hangs.
 
 Names are generated and stable: ``root`` (the heart), then for chain c (numbered from 1 in the order the
 paths were grown: farthest extreme point first) ``chain<c>_joint1``, ``chain<c>_joint2``, ... outward, and
