@@ -58,8 +58,9 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     face_joint = np.argmax(weights[faces].sum(axis=1), axis=1)   # [F] the joint with most weight on the face
 
     views = _choose_views(vertices)
-    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ x)) / max(float(np.ptp(vertices @ y)), 1e-12)
-               for _, _, x, y, _ in views]
+    # One scale for both views, so that the taller one (the top view of a flat shape) fills the height.
+    tallest = max(max(float(np.ptp(vertices @ y)) for _, _, _, y, _ in views), 1e-12)
+    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ x)) / tallest for _, _, x, _, _ in views]
     # Long, low shapes would make a very wide picture: shrink both views to fit the width instead.
     shrink = min(1.0, _MAX_VIEWS_WIDTH / sum(natural))
     view_height = max(_VIEW_HEIGHT * shrink, 2.5)

@@ -133,10 +133,12 @@ def limb_base(graph: VoxelGraph, path: np.ndarray, covered: np.ndarray) -> int:
     """The index in path [L] (nodes, from the tree out to a tip; covered [L]: inside the balls of the tree so
     far) where its limb leaves the body: past the voxels the tree covers, and past the voxels whose inscribed
     balls lie inside the ball of one of the path's voxels BODY_DEPTH times deeper than the limb (the median
-    depth beyond the tree): that is the body it crosses on the way out. Never the tip itself."""
+    depth beyond the tree) and a voxel more: that is the body it crosses on the way out. Never the tip."""
     first = int(np.argmin(covered))
     depth = graph.depth[path]
-    thick = np.flatnonzero(depth > BODY_DEPTH * np.median(depth[first:]))
+    # A voxel more than the limb's depth (and one voxel of noise) deeper: on a limb a voxel or two thick, the
+    # voxelization's ripples alone make some voxels half again as deep as the rest.
+    thick = np.flatnonzero(depth > BODY_DEPTH * np.median(depth[first:]) + 1.0)
     if len(thick):
         points = graph.voxels[path].astype(np.float64)
         gap = np.linalg.norm(points[first:, None] - points[None, thick], axis=2)          # [L - first, T]
