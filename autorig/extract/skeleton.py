@@ -8,8 +8,8 @@ the path point that gives the smallest maximum error of the two bones it makes (
 largest distance of the path points it replaces from it), which on a single bend is the bend, among the
 points at least the shortest bone (MIN_BONE_*: relative to the limb's thickness, its length and the shape's
 diagonal) from both ends. The bone with the largest error is split first, until every bone's error is below
-SPLIT_TOLERANCE times the mean depth of its stretch of path (a bend shallower than that is not worth a joint,
-so a straight limb keeps its base and its tip) or ``max_segments`` - 1 splits have been made: a chain has at
+SPLIT_TOLERANCE times the mean depth of its stretch of path, or of THINNEST_DEPTH voxels if that is more (a
+bend shallower than that is not worth a joint, so a straight limb keeps its base and its tip) or ``max_segments`` - 1 splits have been made: a chain has at
 most ``max_segments`` bones plus one more for each joint where another chain hangs.
 
 Names are generated and stable: ``root`` (the heart), then for chain c (numbered from 1 in the order the
@@ -26,6 +26,9 @@ from .paths import PathTree
 from .voxels import VoxelGrid
 
 SPLIT_TOLERANCE = 0.5
+# A path along a limb a voxel or two thick zigzags by about a voxel however straight the limb: measured
+# against at least this depth (voxels), that is no bend.
+THINNEST_DEPTH = 3.0
 # The shortest bone a split may make: a bone shorter than its limb is thick, or than a small share of the
 # limb's length or of the whole shape, is a knot, not a joint a rigger would place.
 MIN_BONE_DEPTHS = 2.0      # times the limb's mean depth (its radius)
@@ -84,17 +87,19 @@ def split_chain(points: np.ndarray, depth: np.ndarray, forced: np.ndarray, max_s
     gaps = np.linalg.norm(points[keep] - points[base], axis=1)
     if 0 < base < end and len(keep) - 1 < budget and gaps.min() >= min_bone:
         keep = sorted({*keep, base})
+    too_short: set[tuple[int, int]] = set()                  # bones with no split point min_bone from both ends
     while len(keep) - 1 < budget:
         # Each bone's error in units of the depth along it: how far the path strays, for the limb's size.
-        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), 1e-9) if b > base + 1 else 0.0
-                  for a, b in zip(keep[:-1], keep[1:])]
+        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), THINNEST_DEPTH)
+                  if b > base + 1 and (a, b) not in too_short else 0.0 for a, b in zip(keep[:-1], keep[1:])]
         worst = int(np.argmax(scores))
         a, b = keep[worst], keep[worst + 1]
         if scores[worst] <= SPLIT_TOLERANCE:
             break
         k = best_split(points, a, b, min_bone, first=base + 1)
         if k is None:
-            break
+            too_short.add((a, b))
+            continue
         keep.insert(worst + 1, k)
     return np.array(keep, dtype=np.int64)
 
