@@ -158,7 +158,8 @@ class AssetResult:
     seconds     wall time of the work on this asset, transfer included (0 when skipped)
     timings     {stage: seconds} of the pipeline and the ``write`` stage ({} when skipped)
     previous_timings  for ``skipped``: the ``timings`` of the run that rigged it, else {}
-    thumbnails  {"front": path, "side": path} of its small pictures (WebP) relative to the output folder, when
+    thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
+                flat shape) relative to the output folder, when
                 a run with ``html`` drew them (kept for skipped assets), else {}
     """
     input: str
@@ -802,7 +803,7 @@ def _write_thumbnails(output_dir: Path, output: str, pictures: dict[str, bytes])
 
 
 def _remove_thumbnails(output_dir: Path, output: str) -> None:
-    for view in ("front", "side"):
+    for view in ("front", "side", "top"):     # the views render_thumbnails draws (top: a flat shape)
         with contextlib.suppress(OSError):
             (output_dir / _thumbnail_path(output, view)).unlink()
 

@@ -98,8 +98,8 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
         kind, badge = "ok", "ok"
     if asset.status == "skipped" and not asset.failed:
         badge += ", unchanged"
-    pictures = "".join(_picture(output_dir / asset.thumbnails[view], f"{view} of {asset.input}")
-                       for view in ("front", "side") if view in asset.thumbnails)
+    pictures = "".join(_picture(output_dir / rel, f"{view} of {asset.input}")
+                       for view, rel in asset.thumbnails.items())
     if not pictures:
         pictures = f'<div class="nopic">{_no_picture(asset)}</div>'
     name = e(asset.input)

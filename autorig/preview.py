@@ -1,4 +1,5 @@
-"""A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it.
+"""A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it
+(for a flat shape, a top view and the wider of the two).
 
     from autorig.preview import render_preview
     render_preview(rig, "hero.png")                  # the rig's own up/front (rig.info), else +y up, facing +z
@@ -30,10 +31,11 @@ _LEGEND_WIDTH = 2.3  # inches per column
 _LEGEND_ROW = 0.24   # inches per entry
 _DPI = 100
 _LABEL_SIZE = 7.5  # points
+
+
 # A thumbnail 160 pixels high shows no more than this: denser meshes are simplified before drawing (drawing
 # 120k faces took 6 s a thumbnail, 4,000 take about 0.1 s, and the decimation 0.3 s).
 _THUMBNAIL_FACES = 4000
-
 
 def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, up: str | None = None,
                    front: str | None = None) -> dict[str, tuple[int, int, int, int]]:
@@ -42,7 +44,8 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     up, front  the rig's axes (x|y|z|-x|-y|-z); default ``rig.info``'s ``up``/``front``, else y and z
     title      the heading; default names the template and counts joints and vertices
     returns    {"front": box, "side": box}: where each view is in the picture, as pixel (left, top, right,
-               bottom), origin top-left
+               bottom), origin top-left; a flat shape (lower than 0.6 of its narrower horizontal extent: a
+               spider, a star lying down) is seen from above instead, {"top": box, "front" or "side": box}
     Raises ``ImportError`` without matplotlib, ``OutputError`` if ``path`` cannot be written.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -58,10 +61,10 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     colours = _joint_colours(len(rig.names))
     face_joint = np.argmax(weights[faces].sum(axis=1), axis=1)   # [F] the joint with most weight on the face
 
-    views = _views()
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    height = max(hi[1] - lo[1], 1e-12)
-    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ axis)) / height for _, _, axis, _ in views]
+    views = _choose_views(vertices)
+    # One scale for both views, so that the taller one (the top view of a flat shape) fills the height.
+    tallest = max(max(float(np.ptp(vertices @ y)) for _, _, _, y, _ in views), 1e-12)
+    natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ x)) / tallest for _, _, x, _, _ in views]
     # Long, low shapes would make a very wide picture: shrink both views to fit the width instead.
     shrink = min(1.0, _MAX_VIEWS_WIDTH / sum(natural))
     view_height = max(_VIEW_HEIGHT * shrink, 2.5)
@@ -78,9 +81,9 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
                     fontsize=14, fontweight="bold")
 
     axes = {}
-    for column, (name, heading, screen_x, toward_camera) in enumerate(views):
+    for column, (name, heading, screen_x, screen_y, toward_camera) in enumerate(views):
         ax = figure.add_subplot(grid[0, column])
-        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera)
+        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera, screen_y)
         ax.set_title(heading, fontsize=11)
         axes[name] = ax
     _draw_legend(figure.add_subplot(grid[0, 2]), rig.names, colours, shown, legend_columns)
@@ -97,16 +100,11 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     return boxes
 
 
-def _views() -> list[tuple[str, str, np.ndarray, np.ndarray]]:
-    """Each view: (name, heading, screen x axis, depth axis pointing at the camera) in the character's frame."""
-    return [("front", "front", np.array([1.0, 0, 0]), np.array([0, 0, 1.0])),
-            ("side", "side (right)", np.array([0, 0, 1.0]), np.array([-1.0, 0, 0]))]
-
-
 def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front: str | None = None,
                       quality: int = 70) -> dict[str, bytes]:
-    """Small pictures of ``rig`` for a page of many rigs (``autorig batch --html``): {"front": WebP bytes,
-    "side": WebP bytes}, each ``height`` pixels high and as wide as the view needs (at most twice as wide),
+    """Small pictures of ``rig`` for a page of many rigs (``autorig batch --html``): {view: WebP bytes} for the
+    two views ``render_preview`` draws ("front" and "side"; "top" and one of those for a flat shape), each
+    ``height`` pixels high and as wide as the view needs (at most twice as wide),
     the same views as ``render_preview`` without the title, labels and legend, which would not be legible.
 
     up, front  as for ``render_preview``
@@ -124,14 +122,14 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
     face_joint = np.argmax(np.asarray(rig.weights)[faces].sum(axis=1), axis=1)
     if len(faces) > _THUMBNAIL_FACES:
         vertices, faces, face_joint = _simplified(vertices, faces, face_joint, _THUMBNAIL_FACES)
-    span = max(float(np.ptp(vertices[:, 1])), 1e-12)
     pictures = {}
-    for name, _, screen_x, toward_camera in _views():
+    for name, _, screen_x, screen_y, toward_camera in _choose_views(vertices):
+        span = max(float(np.ptp(vertices @ screen_y)), 1e-12)
         aspect = min(max(1.08 * float(np.ptp(vertices @ screen_x)) / span, 0.3), 2.0)
         figure = Figure(figsize=(height * aspect / _DPI, height / _DPI), dpi=_DPI)
         FigureCanvasAgg(figure)
         ax = figure.add_axes((0, 0, 1, 1))
-        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera,
+        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera, screen_y,
                    thumbnail=True)
         ax.axis("off")
         buffer = BytesIO()
@@ -156,19 +154,35 @@ def _simplified(vertices: np.ndarray, faces: np.ndarray, face_joint: np.ndarray,
     return coarse_vertices, coarse_faces, face_joint[nearest]
 
 
+# Each view: (name, heading, screen x axis, screen y axis, axis pointing at the camera) in the character's
+# frame (left, up, front).
+_FRONT = ("front", "front", np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0]))
+_SIDE = ("side", "side (right)", np.array([0, 0, 1.0]), np.array([0, 1.0, 0]), np.array([-1.0, 0, 0]))
+_TOP = ("top", "top (front up)", np.array([-1.0, 0, 0]), np.array([0, 0, 1.0]), np.array([0, 1.0, 0]))
+_FLAT = 0.6   # a shape lower than this share of its narrower horizontal extent is flat: seen from above
+
+
+def _choose_views(vertices: np.ndarray) -> list[tuple]:
+    """The two views to draw of vertices [V, 3] (character's frame): front and side; for a flat shape (a
+    spider, a star lying down), whose limbs would overlap in both, the top view and the wider of the two."""
+    left, up, front = np.ptp(vertices, axis=0)
+    if up < _FLAT * min(left, front):
+        return [_TOP, _FRONT if left >= front else _SIDE]
+    return [_FRONT, _SIDE]
+
+
 def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, screen_x, toward_camera,
-               thumbnail: bool = False) -> None:
+               up=np.array([0.0, 1.0, 0.0]), thumbnail: bool = False) -> None:
     """One orthographic view: shaded faces far to near, then bones, joints and labels over them (a
     ``thumbnail`` has thinner bones, smaller dots and no labels).
 
     vertices [V, 3], joints [J, 3]  in the character's frame (left, up, front)
     faces [F, 3], face_joint [F]    triangles and the joint whose colour (colours [J, 3]) each one takes
-    screen_x, toward_camera [3]     the frame directions drawn rightwards and pointing at the viewer
+    screen_x, toward_camera, up [3] the frame directions drawn rightwards, pointing at the viewer and upwards
     """
     from matplotlib import patheffects
     from matplotlib.collections import LineCollection, PolyCollection
 
-    up = np.array([0.0, 1.0, 0.0])
     screen = np.stack([vertices @ screen_x, vertices @ up], axis=1)        # [V, 2]
     corners = vertices[faces]                                              # [F, 3, 3]
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
@@ -178,11 +192,11 @@ def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, scree
     shade = 0.35 + 0.65 * facing
     order = np.argsort(corners.mean(axis=1) @ toward_camera, kind="stable")
     face_colours = colours[face_joint[order]] * shade[order, None]
-    # A thumbnail's limits come from the vertices: the same box, without measuring every polygon's path (a
-    # third of a thumbnail's drawing time).
     ax.add_collection(PolyCollection(screen[faces[order]], facecolors=face_colours, edgecolors="none",
                                      antialiaseds=False, rasterized=True), autolim=not thumbnail)
     if thumbnail:
+        # A thumbnail's limits come from the vertices: the same box, without measuring every polygon's path (a
+        # third of a thumbnail's drawing time).
         ax.update_datalim(screen[np.unique(faces)])
 
     joint_screen = np.stack([joints @ screen_x, joints @ up], axis=1)

@@ -13,10 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, example, given, settings
 
 import autorig
 from autorig.extract import AUTO, fixed_axes
-from autorig.extract.shapes import star, tree
+from autorig.extract.shapes import (CreatureSpec, LimbSpec, NumpyDraw, creature, random_creature, score_limbs, star,
+                                    tree)
+from creatures import creatures
 from autorig.extract.skeleton import best_split, split_chain
 from autorig.mesh import load_mesh
 
@@ -111,7 +114,7 @@ def test_star_has_one_chain_per_arm(arms):
 
 @pytest.mark.parametrize("levels", [2, 3])
 def test_tree_has_one_chain_per_branch(levels):
-    rig = rigged("tree", levels)
+    rig = rigged("tree", levels, voxels=64)           # at 48 voxels the finest twigs are a voxel thick
     shape = tree(levels=levels)
     assert len(shape.tips) == 2 ** levels + 1            # the twigs and the foot of the trunk
     assert len(chain_ends(rig)) == len(shape.tips)
@@ -134,16 +137,112 @@ def test_star_weights_move_each_arm_with_its_own_chain():
         assert np.all(others < 0.01 * own), (name, others, own)
 
 
+# ------------------------------------------------------------------------------------------------- creatures
+
+def creature_rig(spec: CreatureSpec, max_segments: int = 8):
+    """(shape, rig, score) of a creature rigged at the default voxels."""
+    shape = creature(spec)
+    rig = autorig.rig((shape.vertices, shape.faces), AUTO, autorig.RigOptions(up="y", front="z",
+                                                                              max_segments=max_segments))
+    return shape, rig, score_limbs(shape, rig.names, rig.parents, rig.joints)
+
+
+def assert_rigger_would_draw(score) -> None:
+    """One chain per limb; no knots; chains start where their limbs leave the body; straight limbs straight."""
+    assert score.exact, (score.limbs, score.chains, score.found)
+    assert score.shortest_bone >= 0.02
+    assert np.all(score.start_gap < 8.0), score.start_gap          # voxels at the default resolution
+    assert np.all(score.straight_inner <= 2), score.straight_inner
+
+
+def limb(direction, length=1.6, radius=3.0, taper=1.0, bend=0.0, bend_axis=(0.0, 0.0, 1.0)) -> LimbSpec:
+    d = np.asarray(direction, dtype=float)
+    return LimbSpec(tuple(d / np.linalg.norm(d)), length, radius, taper, bend, bend_axis, 0.5)
+
+
+@pytest.mark.parametrize("arms", [3, 7])
+@pytest.mark.parametrize("welded", [True, False], ids=["welded", "overlapping"])
+def test_ball_with_capsule_arms_has_a_chain_per_arm(arms, welded):
+    from autorig.extract.shapes import _layout_directions
+
+    limbs = tuple(limb(d) for d in _layout_directions(arms, "all round", 0.3))
+    _, _, score = creature_rig(CreatureSpec("sphere", (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), (), limbs, welded))
+    assert_rigger_would_draw(score)
+
+
+def ellipsoid_animal(welded: bool) -> CreatureSpec:
+    """Four legs, a neck with a head, a thin tail on a long ellipsoid (+x forward, +y up)."""
+    legs = tuple(limb((x, -1.0, z), length=1.4, radius=3.5, taper=0.6) for x in (0.8, -0.8) for z in (0.4, -0.4))
+    neck = limb((1.0, 0.8, 0.0), length=1.2, radius=4.0, bend=50.0, bend_axis=(0.0, 0.0, -1.0))
+    tail = limb((-1.0, 0.2, 0.0), length=1.5, radius=1.6)
+    return CreatureSpec("ellipsoid", (1.7, 0.8, 0.7), (0.0, 0.0, 0.0), (), legs + (neck, tail), welded)
+
+
+@pytest.mark.parametrize("welded", [True, False], ids=["welded", "overlapping"])
+def test_ellipsoid_animal_has_a_chain_per_limb_and_no_knots(welded):
+    shape, rig, score = creature_rig(ellipsoid_animal(welded))
+    assert_rigger_would_draw(score)
+    # The legs bend nowhere: each is its base and its tip, hanging from the root.
+    legs = nearest_ends(rig, shape.tips[:4])
+    for end in legs:
+        joints = [n for n in rig.names if chain(n) == chain(end)]
+        assert len(joints) <= 3, joints
+
+
+def test_max_segments_still_bounds_each_chain():
+    for budget in (1, 2):
+        _, rig, score = creature_rig(ellipsoid_animal(True), max_segments=budget)
+        assert score.found == score.limbs == score.chains
+        for end in chain_ends(rig):
+            assert len([n for n in rig.names if chain(n) == chain(rig.names[end])]) <= budget
+
+
+# Seeds of numpy-drawn creatures (``benchmarks/extract_stages.py``) that once came out wrong: a bump on a flat
+# blob made a chain (171).
+@pytest.mark.parametrize("seed", [171])
+def test_regression_creatures(seed):
+    _, _, score = creature_rig(random_creature(NumpyDraw(np.random.default_rng(seed))))
+    assert_rigger_would_draw(score)
+
+
+@settings(max_examples=16, derandomize=True, deadline=None, database=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(spec=creatures())
+def test_random_creatures_get_one_chain_per_limb(spec):
+    """A small, fixed sample: ``benchmarks/extract_stages.py`` runs 200 of them."""
+    _, _, score = creature_rig(spec)
+    assert_rigger_would_draw(score)
+
+
+def test_depth_inside_overlapping_parts_is_to_the_outer_surface():
+    """A rod pushed halfway into a ball: the ball's middle is as deep as the ball, not cut by the rod's end."""
+    import trimesh
+    from autorig.extract import distance_map, voxelize
+
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    rod = trimesh.creation.capsule(height=2.0, radius=0.25)
+    rod.apply_translation([0.0, 0.0, 1.0])                   # from the ball's middle out through its surface
+    joined = trimesh.util.concatenate([ball, rod])
+    vertices, faces = np.asarray(joined.vertices), np.asarray(joined.faces, dtype=np.int64)
+    grid = voxelize(vertices, faces, 48)
+    depth = distance_map(grid, vertices, faces)
+    middle = tuple(np.round((np.zeros(3) - grid.origin) / grid.step).astype(int))
+    assert depth[middle] * grid.step == pytest.approx(0.99, abs=0.05)   # the icosphere is a little inside 1
+
+
 # ------------------------------------------------------------------------------------------------- meshes
 
 def test_octopus_has_a_chain_per_tentacle():
-    rig = rigged("octopus_low", 0)
+    rig = rigged("octopus_low", 0, voxels=64)
     ends = chain_ends(rig)
     assert len(ends) == 8 and rig.info["chains"] == 8
-    # The vertex at the far end of each tentacle moves with that tentacle's chain.
+    # The vertex at the far end of each tentacle moves with that tentacle's chain (tentacles touch: the vertex
+    # is one nearer to this chain's last bone than to any other joint).
+    nearest_joint = np.linalg.norm(rig.vertices[:, None] - rig.joints[None], axis=2).argmin(axis=1)
     for e in ends:
         direction = rig.joints[e] - rig.joints[rig.parents[e]]
-        near = np.linalg.norm(rig.vertices - rig.joints[e], axis=1) < 2 * np.linalg.norm(direction)
+        near = (np.linalg.norm(rig.vertices - rig.joints[e], axis=1) < 2 * np.linalg.norm(direction)) \
+            & np.isin(nearest_joint, [e, rig.parents[e]])
         reach = np.where(near, (rig.vertices - rig.joints[e]) @ direction, -np.inf)
         assert moves_with(rig, rig.vertices[np.argmax(reach)], rig.names[e])
 
@@ -185,7 +284,7 @@ def feet(vertices, faces, up: int, band: float = 0.03) -> np.ndarray:
 
 @pytest.mark.parametrize("name, up, front", [("cow", "y", "x"), ("horse", "z", "y")])
 def test_animal_has_a_chain_per_leg(name, up, front):
-    rig = rigged(name, 0, up=up, front=front)
+    rig = rigged(name, 0, voxels=64, up=up, front=front)        # at 48 voxels the cow's legs are a voxel thick
     axis = "xyz".index(up)
     hooves = feet(rig.vertices, rig.faces, axis)
     assert len(hooves) == 4

@@ -118,3 +118,22 @@ def test_missing_matplotlib_fails_before_rigging(tmp_path, monkeypatch):
     result = run(tmp_path / "hero.obj", "--preview")
     assert result.exit_code == 1 and calls == []
     assert result.stderr.strip() == "autorig: error: --preview needs matplotlib: pip install 'autorig[preview]'"
+
+
+def test_a_star_lying_flat_is_seen_from_above(tmp_path):
+    """Six arms round a flat ring: from the front or side they would overlap; from above each shows apart."""
+    import autorig
+    from autorig.extract.shapes import CreatureSpec, LimbSpec, _layout_directions, creature
+
+    arms = tuple(LimbSpec(tuple(d), 1.8, 3.0, 1.0, 0.0, (0.0, 1.0, 0.0), 0.5)
+                 for d in _layout_directions(6, "flat", 0.2))
+    shape = creature(CreatureSpec("ellipsoid", (1.0, 0.6, 1.0), (0.0, 0.0, 0.0), (), arms, True))
+    star = autorig.rig((shape.vertices, shape.faces), "auto", autorig.RigOptions(up="y", front="z", voxels=48))
+    path = tmp_path / "star.png"
+    boxes = render_preview(star, path)
+    assert list(boxes)[0] == "top" and len(boxes) == 2
+    top = boxes["top"]
+    other = next(box for name, box in boxes.items() if name != "top")
+    assert top[3] - top[1] >= other[3] - other[1]              # the top view is the tall one
+    image = crop(pixels(path), top)
+    assert (image.min(axis=2) < 200).mean() > 0.15                 # a mesh drawn there, not an empty box

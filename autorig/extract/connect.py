@@ -7,7 +7,7 @@ by the cheapest centralised routes through the solid between them (Mehlhorn's ap
 tree: one multi-source Dijkstra from every DMS voxel, then a minimum spanning tree of the pieces over the
 routes where their Dijkstra regions meet). The routes run where the paths of the paper would run, since they
 minimise the same measure. Pieces in separate solids (a model built of parts) are then joined by straight gap
-edges, each from a piece's most central voxel to the nearest voxel of the pieces before it.
+edges, each between a piece and the nearest voxel of the pieces before it, at the piece's nearest voxel.
 """
 from __future__ import annotations
 
@@ -116,7 +116,7 @@ def connected_medial(graph: VoxelGraph, medial: np.ndarray) -> VoxelGraph:
 
 def join_pieces(graph: VoxelGraph) -> VoxelGraph:
     """Add gap edges until the graph is connected (its pieces lie in separate solids): the pieces, largest
-    first, each join the ones before them from their most central voxel to the nearest voxel already joined.
+    first, each join the ones before them by the shortest edge between a voxel of theirs and one already joined.
     Returns the graph with the gap edges appended."""
     count, label = connected_components(graph.matrix(graph.lengths), directed=False)
     if count == 1:
@@ -125,10 +125,12 @@ def join_pieces(graph: VoxelGraph) -> VoxelGraph:
     joined = label == order[0]
     gaps = []
     for piece in order[1:]:
-        centre = most_central(graph, np.flatnonzero(label == piece))
-        others = np.flatnonzero(joined)
-        distance, nearest = cKDTree(graph.voxels[others]).query(graph.voxels[centre])
-        gaps.append((centre, others[nearest], distance))
+        # The piece hangs by its end nearest to the rest (a separate leg by its hip, not its middle), so that a
+        # path runs along it from where it meets the body instead of arriving halfway down it.
+        own, others = np.flatnonzero(label == piece), np.flatnonzero(joined)
+        distance, nearest = cKDTree(graph.voxels[others]).query(graph.voxels[own])
+        k = int(np.argmin(distance))
+        gaps.append((own[k], others[nearest[k]], distance[k]))
         joined[label == piece] = True
     edges = np.array([(a, b) for a, b, _ in gaps], dtype=np.int64)
     lengths = np.array([d for _, _, d in gaps], dtype=np.float64)

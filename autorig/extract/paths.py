@@ -11,16 +11,17 @@ On the connected DMS (``connect.connected_medial``):
 * each extreme point grows a centralised path back to the tree: the route minimising W = sum of 1/d^3 over its
   voxels (d the EDM), which keeps to the middle of the volume. The first path, from the farthest extreme
   point, runs to the heart and is always kept (so a limbless blob still gets one bone);
-* the voxels of a path cover the DMS voxels inside their inscribed balls (radius = their EDM). An extreme point
-  is not used when its shortest route over the DMS to a covered voxel (how far it reaches beyond the parts
-  already in the tree) is shorter than NOISE_LENGTH times the depth where its path would join the tree, or
-  shorter than MIN_REACH voxels: it is a bump or a flat rim of the part it sits on, or a ripple of the
-  voxelization, not a limb. (On the five shared test meshes at 96 voxels, the limbs kept reach 1.8 (a
-  finger) to 6 (legs, heads, tentacles) depths of where they join; the points dropped by the first rule
-  reach at most 1.3, and those dropped by the second, within a part a voxel or two deep, up to 5.6 depths.)
-* a path that would join the tree within the inscribed ball of an existing branch point (the heart or where
-  an earlier path joined) joins at that branch point instead, so limbs leaving the body close together share
-  one joint rather than leaving a string of tiny bones;
+* the voxels of a path cover the DMS voxels inside their inscribed balls (radius = their EDM). A path's limb
+  base (``limb_base``) is where it leaves the body: past the voxels the tree already covers, and past those
+  whose balls lie inside the ball of one of its own voxels BODY_DEPTH times deeper than the limb beyond (the
+  body it crosses on the way out). An extreme point is not used when its path reaches less than NOISE_LENGTH times the limb's own
+  greatest depth beyond its base, or less than MIN_REACH voxels (Wade & Parent's noise threshold, scaled by
+  the local thickness where the limb attaches rather than by the body's): it is a bump, a flat rim of the
+  part it sits on, or a ripple of the voxelization, not a limb;
+* a path that would join the tree where an earlier path crosses the body (before that path's base) hangs
+  from where that path starts instead (the heart, or a joint on a limb), so the body holds no joints of its
+  own; one that would join within the inscribed ball of an existing branch point (or limb base) joins there,
+  so limbs leaving close together share one joint rather than leaving a string of tiny bones;
 * the paths, jagged from the voxel steps, are smoothed with their ends held fixed, each point staying inside
   the inscribed ball of its voxel.
 """
@@ -37,6 +38,7 @@ from .connect import VoxelGraph, most_central
 
 NOISE_LENGTH = 1.5       # a limb reaches beyond the covered part at least this many depths of where it joins
 MIN_REACH = 4.5          # ... and at least this many voxels
+BODY_DEPTH = 1.5         # a limb's path crosses the body where it is this many times deeper than the limb
 SMOOTH_ITERATIONS = 8    # passes of (1/4, 1/2, 1/4) averaging along each path
 BALL_FRACTION = 0.9      # smoothing moves a point by at most this fraction of its depth
 
@@ -49,10 +51,13 @@ class PathTree:
     depth   [P] EDM at each point (voxels)
     paths   [K] int64 arrays of point indices: path k runs from the point where it joins the tree (the heart or
             a point of an earlier path) out to its extreme point; paths in the order they were grown
+    bases   [K] for each path, the index in it of its limb's base: the first point outside the parts grown
+            before it (the body, for a limb leaving the body); before it the path only crosses the body
     """
     points: np.ndarray
     depth: np.ndarray
     paths: list[np.ndarray]
+    bases: list[int]
 
 
 def path_tree(graph: VoxelGraph) -> PathTree:
@@ -64,7 +69,8 @@ def path_tree(graph: VoxelGraph) -> PathTree:
     if len(extremes) == 0:
         raise RigFailedError(f"the shape's medial surface is {len(graph.voxels)} voxel(s) across, too small to "
                              f"grow a skeleton on: use more voxels")
-    return smooth_tree(graph, heart, grow_paths(graph, heart, extremes))
+    paths, bases = grow_paths(graph, heart, extremes)
+    return smooth_tree(graph, heart, paths, bases)
 
 
 def extreme_points(graph: VoxelGraph, geodesic: np.ndarray) -> np.ndarray:
@@ -79,10 +85,10 @@ def extreme_points(graph: VoxelGraph, geodesic: np.ndarray) -> np.ndarray:
     return candidates[np.lexsort((candidates, -geodesic[candidates]))]
 
 
-def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> list[np.ndarray]:
+def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> tuple[list[np.ndarray], list[int]]:
     """Centralised paths [K] (node index arrays, from the tree out to the extreme point) of the extreme points
-    (extremes [E], in the order to try them) that pass the coverage test (see the module docstring)."""
-    lengths = graph.matrix(graph.lengths)
+    (extremes [E], in the order to try them) that pass the coverage test, and each one's base: the index in it
+    where the limb leaves the parts already in the tree (see the module docstring)."""
     costs = graph.matrix(graph.centralised_costs())
     balls = cKDTree(graph.voxels)
     in_tree = np.zeros(len(graph.voxels), dtype=bool)
@@ -91,24 +97,55 @@ def grow_paths(graph: VoxelGraph, heart: int, extremes: np.ndarray) -> list[np.n
     covered[_covered_by(balls, graph, np.array([heart]))] = True
     branch_points = [heart]
     paths: list[np.ndarray] = []
-    reach = route = None
+    bases: list[int] = []
+    body_of = np.full(len(graph.voxels), -1, dtype=np.int64)   # node -> the path whose body part holds it
+    route = None
     for tip in extremes:
         # The farthest extreme point always grows a path, so that even a limbless blob gets one bone.
         if paths and covered[tip]:
             continue
-        if reach is None:
-            reach = dijkstra(lengths, indices=np.flatnonzero(covered), min_only=True)
+        if route is None:
             _, route, _ = dijkstra(costs, indices=np.flatnonzero(in_tree), min_only=True, return_predecessors=True)
         path = _walk(route, tip)[::-1]                        # from the tree out to the tip
-        if paths and reach[tip] < max(NOISE_LENGTH * graph.depth[path[0]], MIN_REACH):
+        base = limb_base(graph, path, covered[path])
+        # Its own thickness beyond the body, not the body's where the path joins, says whether it stands out.
+        steps = np.linalg.norm(np.diff(graph.voxels[path[base:]], axis=0), axis=1)
+        if paths and steps.sum() < max(NOISE_LENGTH * graph.depth[path[base:]].max(), MIN_REACH):
             continue
-        path[0] = _snap(graph, path[0], np.array(branch_points))
-        branch_points.append(int(path[0]))
+        if body_of[path[0]] >= 0:
+            # It joins an earlier path inside the body that path crosses: hang it where that path starts (the
+            # heart, or a joint of a limb), not from a joint of its own in the middle of the body.
+            path = np.concatenate([[paths[body_of[path[0]]][0]], path[max(base, 1):]])
+            base = 1
+        else:
+            path[0] = _snap(graph, path[0], np.array(branch_points))
+        branch_points += [int(path[0]), int(path[base])]
+        body_of[path[1:base]] = len(paths)
         paths.append(path)
+        bases.append(base)
         in_tree[path] = True
         covered[_covered_by(balls, graph, path)] = True
-        reach = None                                         # the tree has changed: recompute when needed
-    return paths
+        route = None                                         # the tree has changed: recompute when needed
+    return paths, bases
+
+
+def limb_base(graph: VoxelGraph, path: np.ndarray, covered: np.ndarray) -> int:
+    """The index in path [L] (nodes, from the tree out to a tip; covered [L]: inside the balls of the tree so
+    far) where its limb leaves the body: past the voxels the tree covers, and past the voxels whose inscribed
+    balls lie inside the ball of one of the path's voxels BODY_DEPTH times deeper than the limb (the median
+    depth beyond the tree) and a voxel more: that is the body it crosses on the way out. Never the tip."""
+    first = int(np.argmin(covered))
+    depth = graph.depth[path]
+    # A voxel more than the limb's depth (and one voxel of noise) deeper: on a limb a voxel or two thick, the
+    # voxelization's ripples alone make some voxels half again as deep as the rest.
+    thick = np.flatnonzero(depth > BODY_DEPTH * np.median(depth[first:]) + 1.0)
+    if len(thick):
+        points = graph.voxels[path].astype(np.float64)
+        gap = np.linalg.norm(points[first:, None] - points[None, thick], axis=2)          # [L - first, T]
+        inside = np.flatnonzero((gap + depth[first:, None] <= depth[thick][None]).any(axis=1))
+        if len(inside):
+            first += int(inside.max()) + 1
+    return min(first, len(path) - 2) if len(path) > 1 else 0
 
 
 def _covered_by(balls: cKDTree, graph: VoxelGraph, nodes: np.ndarray) -> np.ndarray:
@@ -132,7 +169,7 @@ def _snap(graph: VoxelGraph, node: int, branch_points: np.ndarray) -> int:
     return int(branch_points[k]) if gap[k] <= graph.depth[node] else node
 
 
-def smooth_tree(graph: VoxelGraph, heart: int, paths: list[np.ndarray]) -> PathTree:
+def smooth_tree(graph: VoxelGraph, heart: int, paths: list[np.ndarray], bases: list[int]) -> PathTree:
     """Renumber the tree's nodes (heart first, then each path's new nodes in order) and smooth every path with
     its ends held fixed (SMOOTH_ITERATIONS passes of (1/4, 1/2, 1/4) averaging), no point moving further than
     BALL_FRACTION of its depth from its voxel's centre."""
@@ -145,11 +182,13 @@ def smooth_tree(graph: VoxelGraph, heart: int, paths: list[np.ndarray]) -> PathT
     reach = BALL_FRACTION * graph.depth[order]
     points = centres.copy()
     tree_paths = [index[p] for p in paths]
-    for path in tree_paths:
-        q, home, limit = points[path], centres[path[1:-1]], reach[path[1:-1], None]
-        for _ in range(SMOOTH_ITERATIONS):
+    # The base is held too: the crossing of the body before it is one straight bone, whose far end (a rerouted
+    # path's jump from where it hangs) must not drag the limb's first joint back into the body.
+    for piece in [part for path, base in zip(tree_paths, bases) for part in (path[:base + 1], path[base:])]:
+        q, home, limit = points[piece], centres[piece[1:-1]], reach[piece[1:-1], None]
+        for _ in range(SMOOTH_ITERATIONS if len(piece) > 2 else 0):
             moved = 0.25 * q[:-2] + 0.5 * q[1:-1] + 0.25 * q[2:] - home
             length = np.linalg.norm(moved, axis=1, keepdims=True)
             q[1:-1] = home + moved * np.minimum(1.0, limit / np.maximum(length, 1e-12))
-        points[path[1:-1]] = q[1:-1]
-    return PathTree(points, graph.depth[order], tree_paths)
+        points[piece[1:-1]] = q[1:-1]
+    return PathTree(points, graph.depth[order], tree_paths, list(bases))

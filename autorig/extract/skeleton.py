@@ -1,14 +1,16 @@
 """Stage 5 of the template-free skeleton: the control skeleton (Wade & Parent 2002, section 5).
 
 Each path of the path tree becomes one chain of joints. A chain always has joints at its two ends and where
-later paths join it; between them it is split recursively where a straight bone would fit it worst: the split
-point is the path point that gives the smallest maximum error of the two bones it makes (the error of a bone
-being the largest distance of the path points it replaces from it), which on a single bend is the bend. The
-bone with the largest error is split first, until every bone's error is below SPLIT_TOLERANCE times the mean
-depth of its stretch of path (a bend shallower than that is not worth a joint) or ``max_segments`` - 1 splits
-have been made: a chain has at most ``max_segments`` bones plus one more for each joint where another chain
-hangs (those must be joints, and a chain that many others hang from, like the first one through a spider's
-body, still needs joints along its own limb).
+later paths join it, and one at its limb's base (where the limb leaves the body: the crossing of the body
+before it is one bone) when that is at least the shortest bone from the joints around it and the budget
+allows. Beyond the base it is split recursively where a straight bone would fit it worst: the split point is
+the path point that gives the smallest maximum error of the two bones it makes (the error of a bone being the
+largest distance of the path points it replaces from it), which on a single bend is the bend, among the
+points at least the shortest bone (MIN_BONE_*: relative to the limb's thickness, its length and the shape's
+diagonal) from both ends. The bone with the largest error is split first, until every bone's error is below
+SPLIT_TOLERANCE times the mean depth of its stretch of path, or of THINNEST_DEPTH voxels if that is more (a
+bend shallower than that is not worth a joint, so a straight limb keeps its base and its tip) or ``max_segments`` - 1 splits have been made: a chain has at
+most ``max_segments`` bones plus one more for each joint where another chain hangs.
 
 Names are generated and stable: ``root`` (the heart), then for chain c (numbered from 1 in the order the
 paths were grown: farthest extreme point first) ``chain<c>_joint1``, ``chain<c>_joint2``, ... outward, and
@@ -24,6 +26,14 @@ from .paths import PathTree
 from .voxels import VoxelGrid
 
 SPLIT_TOLERANCE = 0.5
+# A path along a limb a voxel or two thick zigzags by about a voxel however straight the limb: measured
+# against at least this depth (voxels), that is no bend.
+THINNEST_DEPTH = 3.0
+# The shortest bone a split may make: a bone shorter than its limb is thick, or than a small share of the
+# limb's length or of the whole shape, is a knot, not a joint a rigger would place.
+MIN_BONE_DEPTHS = 2.0      # times the limb's mean depth (its radius)
+MIN_BONE_LENGTH = 0.15     # of the limb's length from its base to its tip
+MIN_BONE_DIAGONAL = 0.025  # of the diagonal of the mesh's bounding box
 
 
 def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tuple[np.ndarray, Template]:
@@ -34,10 +44,16 @@ def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tupl
         raise ValueError(f"max_segments must be at least 1, got {max_segments}")
     attached = np.zeros(len(tree.points), dtype=bool)
     attached[[int(p[0]) for p in tree.paths]] = True
+    # The grid spans the mesh's box plus one empty voxel all round: its diagonal in voxels, less that margin.
+    diagonal = float(np.linalg.norm(np.array(grid.inside.shape) - 2))
     joint_of = {0: 0}                                         # tree point -> joint index
     names, parents, points, chain_ends = ["root"], [-1], [0], []
-    for c, path in enumerate(tree.paths, start=1):
-        keep = split_chain(tree.points[path], tree.depth[path], np.flatnonzero(attached[path]), max_segments)
+    for c, (path, base) in enumerate(zip(tree.paths, tree.bases), start=1):
+        limb = tree.points[path[base:]]
+        min_bone = max(MIN_BONE_DIAGONAL * diagonal, MIN_BONE_DEPTHS * float(tree.depth[path[base:]].mean()),
+                       MIN_BONE_LENGTH * float(np.linalg.norm(np.diff(limb, axis=0), axis=1).sum()))
+        keep = split_chain(tree.points[path], tree.depth[path], np.flatnonzero(attached[path]), max_segments,
+                           base, min_bone)
         previous = joint_of[int(path[0])]
         for k, i in enumerate(keep[1:], start=1):
             joint_of[int(path[i])] = len(names)
@@ -56,23 +72,35 @@ def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tupl
     return joints, template
 
 
-def split_chain(points: np.ndarray, depth: np.ndarray, forced: np.ndarray, max_segments: int) -> np.ndarray:
+def split_chain(points: np.ndarray, depth: np.ndarray, forced: np.ndarray, max_segments: int, base: int = 0,
+                min_bone: float = 0.0) -> np.ndarray:
     """Indices [S + 1] (ascending, first and last included) of the joints of a chain along a path.
 
     points [n, 3] the path, depth [n] its EDM, forced [F] indices that must be joints (where other chains
-    hang); see the module docstring for the rule.
+    hang), base the index where the limb leaves the body (a joint too when the budget allows, and the body
+    crossed before it gets no joint of its own), min_bone the shortest bone a split may make (the base is
+    left out when it is that close to another joint); see the module docstring for the rule.
     """
-    keep = sorted({0, len(points) - 1, *map(int, forced)})
+    end = len(points) - 1
+    keep = sorted({0, end, *map(int, forced)})
     budget = len(keep) - 1 + max_segments - 1                 # the forced joints do not use up the budget
+    gaps = np.linalg.norm(points[keep] - points[base], axis=1)
+    if 0 < base < end and len(keep) - 1 < budget and gaps.min() >= min_bone:
+        keep = sorted({*keep, base})
+    too_short: set[tuple[int, int]] = set()                  # bones with no split point min_bone from both ends
     while len(keep) - 1 < budget:
         # Each bone's error in units of the depth along it: how far the path strays, for the limb's size.
-        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), 1e-9)
-                  for a, b in zip(keep[:-1], keep[1:])]
+        scores = [segment_error(points, a, b) / max(float(depth[a:b + 1].mean()), THINNEST_DEPTH)
+                  if b > base + 1 and (a, b) not in too_short else 0.0 for a, b in zip(keep[:-1], keep[1:])]
         worst = int(np.argmax(scores))
         a, b = keep[worst], keep[worst + 1]
-        if scores[worst] <= SPLIT_TOLERANCE or b - a < 2:
+        if scores[worst] <= SPLIT_TOLERANCE:
             break
-        keep.insert(worst + 1, best_split(points, a, b))
+        k = best_split(points, a, b, min_bone, first=base + 1)
+        if k is None:
+            too_short.add((a, b))
+            continue
+        keep.insert(worst + 1, k)
     return np.array(keep, dtype=np.int64)
 
 
@@ -81,8 +109,9 @@ def segment_error(points: np.ndarray, a: int, b: int) -> float:
     return float(_distances_to_segment(points[a:b + 1], points[a], points[b]).max())
 
 
-def best_split(points: np.ndarray, a: int, b: int) -> int:
-    """The index k in (a, b) that minimises max(error of bone a -> k, error of bone k -> b)."""
+def best_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0, first: int = 0) -> int | None:
+    """The index k in (a, b) that minimises max(error of bone a -> k, error of bone k -> b), among those at
+    least min_bone from both ends and not before ``first`` (None if there is none)."""
     q = points[a:b + 1]
     m = len(q)
     # head[i, k]: distance of point i from the bone a -> k, counted for i <= k; tail likewise for k -> b.
@@ -90,7 +119,12 @@ def best_split(points: np.ndarray, a: int, b: int) -> int:
     tail = _distance_matrix(q, q, q[-1])
     i, k = np.arange(m)[:, None], np.arange(m)[None, :]
     worst = np.maximum(np.where(i <= k, head, 0.0).max(axis=0), np.where(i >= k, tail, 0.0).max(axis=0))
-    return a + 1 + int(np.argmin(worst[1:-1]))
+    allowed = (np.linalg.norm(q - q[0], axis=1) >= min_bone) & (np.linalg.norm(q - q[-1], axis=1) >= min_bone)
+    allowed[[0, -1]] = False
+    allowed[:max(first - a, 0)] = False
+    if not allowed.any():
+        return None
+    return a + int(np.argmin(np.where(allowed, worst, np.inf)))
 
 
 def _distances_to_segment(x: np.ndarray, head: np.ndarray, tail: np.ndarray) -> np.ndarray:
