@@ -77,7 +77,6 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
     model = ConfidenceModel.from_dict(template.confidence)
     values = features(parts, per_bone, joints, template, model.bone_log_sigma)
-    parts.update(proportions=values["proportions"], directions=values["directions"])
     return model.probability(values), {k: round(float(v), 3) for k, v in parts.items()}
 
 

@@ -81,7 +81,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         embedding = embed(graph, template)
     with stage("refinement"):
         joints = learned_placement(refine(field, place_on_paths(graph, embedding, template), template), template,
-                                   np.ptp(prepared.work_vertices, axis=0))
+                                   np.ptp(prepared.work_vertices, axis=0), field)
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):

@@ -38,13 +38,21 @@ def stretched_template(extent: np.ndarray, template: Template, mean_extent) -> n
     return template.positions * scale
 
 
-def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray) -> np.ndarray:
+def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray, field=None) -> np.ndarray:
     """[J, 3] ``joints`` (canonical frame) pulled by the template's learned ``placement`` (unchanged without);
-    ``extent`` [3] is the mesh's bounding box in the same frame."""
+    ``extent`` [3] is the mesh's bounding box in the same frame. With the distance ``field``, a joint the pull
+    would take out of the mesh stays where it was: the template's rest pose is not the character's (arms
+    held out where the examples' hang), and a limb's joints belong inside the limb."""
     if not template.placement:
         return joints
     alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
-    return joints + alpha * (stretched_template(extent, template, template.placement["extent"]) - joints)
+    placed = joints + alpha * (stretched_template(extent, template, template.placement["extent"]) - joints)
+    if field is not None:
+        solid = np.array([not template.is_tip(j) for j in range(len(template.names))])
+        depth = field.depth(placed)
+        outside = solid & (depth < 0) & (depth < field.depth(joints))
+        placed[outside] = joints[outside]
+    return placed
 
 
 def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,

@@ -50,7 +50,7 @@ def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, ow
 def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[dict, float]:
     """(feature row, worst joint error) of a calibration rig after ``template``'s learned placement."""
     from ..placement import learned_placement
-    joints = learned_placement(sample.refined, template, sample.extent)
+    joints = learned_placement(sample.refined, template, sample.extent, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
     per_bone = sample.embedding.cost / max(len(template.reduced().joints) - 1, 1)
     row = features(parts, per_bone, joints, template, bone_log_sigma)
