@@ -154,6 +154,9 @@ def test_mirror_pairs_found_by_geometry():
                           [0.3, 0.5, 0]])
     parents = np.array([-1, 0, 0, 1, 2, 0])
     assert mirror_pairs(positions, parents) == [(1, 2), (3, 4)]
+    # Shoulders a hair off the mid-plane are still a pair, and so are the arms below them.
+    near = np.array([[0, 0.5, 0], [0.012, 0.7, 0], [-0.012, 0.7, 0], [0.2, 0.6, 0], [-0.2, 0.6, 0]])
+    assert mirror_pairs(near, np.array([-1, 0, 0, 1, 2])) == [(1, 2), (3, 4)]
 
 
 def test_learn_errors_are_one_line(tmp_path):

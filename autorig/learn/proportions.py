@@ -185,7 +185,7 @@ def mirror_pairs(positions: np.ndarray, parents: np.ndarray) -> list[tuple[int, 
     flipped = positions * [-1.0, 1.0, 1.0]
     pairs: dict[int, int] = {}
     for i in range(len(positions)):                       # parents first: a pair's parents are paired before it
-        if positions[i, 0] <= MIRROR_TOLERANCE / 2 or i in pairs:
+        if positions[i, 0] <= 1e-3 or i in pairs:           # a joint on the mid-plane is its own mirror
             continue
         d = np.linalg.norm(positions - flipped[i], axis=1)
         d[[i, *pairs]] = np.inf
@@ -200,7 +200,7 @@ def mirror_pairs(positions: np.ndarray, parents: np.ndarray) -> list[tuple[int, 
 
 def symmetrized(positions: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
     """[J, 3] ``positions`` made exactly left-right symmetric: pairs averaged with each other's mirror image,
-    the other joints on the mid-plane x = 0."""
+    the other joints within MIRROR_TOLERANCE of the mid-plane put on it (x = 0)."""
     out = positions.copy()
     flip = np.array([-1.0, 1.0, 1.0])
     paired = set()
@@ -208,7 +208,7 @@ def symmetrized(positions: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarr
         mean = (positions[i] + positions[j] * flip) / 2
         out[i], out[j] = mean, mean * flip
         paired |= {i, j}
-    central = [k for k in range(len(out)) if k not in paired]
+    central = [k for k in range(len(out)) if k not in paired and abs(out[k, 0]) < MIRROR_TOLERANCE]
     out[central, 0] = 0.0
     return out
 
