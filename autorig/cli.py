@@ -319,9 +319,12 @@ def templates_command():
               help="The template whose joint names corpus folders map to (their joints.json maps); without it "
                    "the rigged glTF files' own joints and hierarchy are learned.")
 @click.option("--name", metavar="NAME", help="The learned template's name. [default: the base's, or the file's stem]")
+@click.option("--learn", "parts", default="proportions,penalties,placement,confidence", show_default=True,
+              metavar="PARTS", help="What to learn (comma-separated); with --template the rest is the base's.")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
-def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: str | None, quiet: bool):
+def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: str | None, parts: str,
+                  quiet: bool):
     """Learn a template from rigged characters: rest proportions, mirror pairs, feet, fat joints, tips and
     helper joints, the embedding's penalty weights (max margin) and a calibrated confidence.
 
@@ -344,7 +347,7 @@ def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: st
     base_template = load_template(base) if base else None
     progress = None if quiet else (lambda line: click.echo(f"  {line}", err=True))
     learned = learn_template(list(rigs), base=base_template, name=name or (None if base else out.stem),
-                             progress=progress)
+                             progress=progress, parts=[p.strip() for p in parts.split(",") if p.strip()])
     description = (base_description(base) + " " if base else "") + \
         f"Learned by autorig learn from {len(learned.examples)} rigged characters."
     write_file_atomic(out, template_json(learned.template.to_dict(description)).encode())

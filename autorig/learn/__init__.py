@@ -23,6 +23,7 @@ from .proportions import (example_positions, fat_joints, feet, fill_from_others,
                           skeleton_of_examples, symmetrized)
 
 FOLDS = 3   # calibration folds (whole groups of examples held out together)
+PARTS = ("proportions", "penalties", "placement", "confidence")   # what a template can learn
 
 
 @dataclass
@@ -37,13 +38,20 @@ class Learned:
 
 
 def learn_template(paths, base: Template | None = None, name: str | None = None, progress=None,
-                   learn_gamma: bool = True, calibrate: bool = True) -> Learned:
+                   parts=PARTS) -> Learned:
     """A template learned from the rigged characters under ``paths`` (``examples.expand``).
 
     base: the template whose joint names corpus folders map to (its joints are the learned template's);
         None for rigged glTF files, whose own joint names and hierarchy are used.
     progress: a callable taking one line of text, or None.
+    parts: what to learn, of ``PARTS``; with a base, what is not learned is the base's (its proportions,
+        its penalty weights, no placement, its confidence formula). Cross-validation decides what pays.
     """
+    from ..errors import TemplateError
+    unknown = sorted(set(parts) - set(PARTS))
+    if unknown or (base is None and "proportions" not in parts):
+        raise TemplateError(f"cannot learn {unknown or 'without proportions'}: the parts are {', '.join(PARTS)}"
+                            " (proportions needed without a base template)")
     say = progress or (lambda _line: None)
     examples = read_examples(paths, base)
     say(f"{len(examples)} examples")
@@ -52,20 +60,24 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
                                    skeleton.parents)
     extents = np.array([np.ptp(e.prepared().work_vertices, axis=0) for e in examples])
     template = _template(skeleton, per_example, examples, base, name)
+    if "proportions" not in parts:
+        template = replace(template, positions=base.positions.copy())
     settings, fields = _settings(examples, template, per_example, say)
     depths = np.mean([np.maximum(f.depth(p), 0.0) for f, p in zip(fields, per_example)], axis=0)
     template = replace(template, fat=tuple(_fat(template, depths)))
     gamma_rounds = []
-    if learn_gamma:
+    if "penalties" in parts:
         from .gamma import learn_weights
         report = learn_weights(_reduced_settings(settings, template), template, progress=say)
         template = replace(template, penalty_weights=report.weights)
         gamma_rounds = report.rounds
     confidence = {}
-    if calibrate:
-        template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say)
+    if "placement" in parts or "confidence" in parts:
+        template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say,
+                                           parts)
     spread = np.sqrt(np.mean(np.sum((per_example - template.positions) ** 2, axis=2), axis=0))
     record = {"examples": [e.name for e in examples], "base": base.name if base is not None else None,
+              "learned": [p for p in PARTS if p in parts],
               "penalty_rounds": gamma_rounds,
               "mean_spread": round(float(np.mean(spread)), 4), "confidence": confidence}
     template = replace(template, learned_from=record)
@@ -148,7 +160,7 @@ def group_of(example: Example) -> str:
     return str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else example.name
 
 
-def _calibrated(template, skeleton, examples, per_example, extents, settings, say):
+def _calibrated(template, skeleton, examples, per_example, extents, settings, say, parts=PARTS):
     """``template`` with its learned placement and a confidence model, both fitted on rigs of held-out folds
     (``placement.fit_alpha``, ``calibrate``)."""
     from ..placement import fit_alpha
@@ -165,7 +177,8 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
         train = folds != fold
         if train.sum() < 2:
             continue
-        held_out = replace(template, positions=symmetrized(per_example[train].mean(axis=0), list(template.symmetry)))
+        held_out = (replace(template, positions=symmetrized(per_example[train].mean(axis=0), list(template.symmetry)))
+                    if "proportions" in parts else template)
         for s in settings:
             # The example's own frame and the one facing backwards: rigs that are right and rigs that are not.
             if folds[s.example] != fold or not (s.true_frame or s.frame == "back"):
@@ -175,11 +188,13 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
                 samples.append(sample)
         say(f"calibration fold {fold + 1}/{len(set(folds.tolist()))}: {len(samples)} rigs")
     own = [s for s in samples if s.own_frame]
-    if own:
+    if own and "placement" in parts:
         mean_extent = extents.mean(axis=0)
         alpha = fit_alpha([s.refined for s in own], [s.truth for s in own], [s.extent for s in own], template,
                           mean_extent, [s.scored.astype(float) for s in own])
         template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
+    if "confidence" not in parts:
+        return template, {}
     rows = [sample_row(s, template, sigma) for s in samples]
     worst = np.array([w for _, w in rows])
     if len(rows) < 2:
