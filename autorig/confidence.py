@@ -19,9 +19,9 @@ Without a model, the confidence is their product. A template learned from exampl
 carries a *calibrated* model instead (``ConfidenceModel``): a logistic regression, fitted on rigs of the
 examples whose true error is known, of the parts above and of how far the rig's proportions are from the
 learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
-examples). Its output is the
-probability that the rig's worst joint is within ``GOOD_ERROR`` of the height, so below 0.5 means "probably
-wrong" and 0.5 or above "probably right". ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
+examples). Its output is the probability that the rig's worst joint is within ``GOOD_ERROR`` of the height,
+so below 0.5 means "probably wrong" and 0.5 or above "probably right". ``STRICT_THRESHOLD`` is where
+``--strict`` stops a pipeline.
 """
 from __future__ import annotations
 

@@ -62,7 +62,7 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     template = _template(skeleton, per_example, examples, base, name)
     if "proportions" not in parts:
         template = replace(template, positions=base.positions.copy())
-    settings, fields = _settings(examples, template, per_example, say)
+    settings, fields = _settings(examples, per_example, say)
     depths = np.mean([np.maximum(f.depth(p), 0.0) for f, p in zip(fields, per_example)], axis=0)
     template = replace(template, fat=tuple(_fat(template, depths)))
     gamma_rounds = []
@@ -103,27 +103,25 @@ def _template(skeleton, per_example: np.ndarray, examples: list[Example], base: 
                     else None, helpers=tuple(helpers))
 
 
-def _settings(examples, template, per_example, say):
+def _settings(examples, per_example, say):
     """The learner's view of every example: (settings for Γ, fields [N]) with the full truth [J, 3] in each
     setting (``_reduced_settings`` picks the reduced joints)."""
-    from ..mesh import check_mesh, prepare
     from ..orient import _handicap
     from ..pipeline import discretize
     from .gamma import Setting
     settings, fields = [], []
     for n, (example, truth) in enumerate(zip(examples, per_example)):
-        V, F = check_mesh(example.vertices, example.faces, example.name)
-        prepared = prepare(V, F, example.up, example.front, name=example.name, checked=True)
+        prepared = example.prepared()
         field, graph = discretize(prepared)
         fields.append(field)
         for up, front in _frames(example.up, example.front):
             change = prepared.frame_change(up, front)
             extent = np.ptp(change.apply(prepared.work_vertices), axis=0)
             if (up, front) == (example.up, example.front):
-                settings.append(Setting(graph, truth, _handicap(up, front), True, n, field, "own", extent))
+                settings.append(Setting(graph, truth, _handicap(up, front), n, field, "own", extent))
                 continue
             settings.append(Setting(graph.moved(change.apply(graph.centers), change.scale), change.apply(truth),
-                                    _handicap(up, front), False, n,
+                                    _handicap(up, front), n,
                                     field.moved(change.rotation, change.offset, change.scale),
                                     "back" if (up, front[-1]) == (example.up, example.front[-1]) else "other",
                                     extent))

@@ -39,19 +39,23 @@ class Setting:
     graph      the sphere graph in that frame
     truth      [K, 3] the example's reduced joints in that frame
     handicap   the orientation handicap of that frame (``autorig.orient``)
-    true_frame whether this is the example's own frame
     example    index of the example
     field      the distance field in that frame (the calibration refines rigs in it)
-    frame      "own", "back" (facing backwards) or "side"
+    frame      "own", "back" (facing backwards, the same up) or "other"
+    extent     [3] the mesh's bounding box in that frame
     """
     graph: object
     truth: np.ndarray
     handicap: float
-    true_frame: bool
     example: int
-    field: object = None
-    frame: str = "own"
-    extent: np.ndarray | None = None    # [3] the mesh's bounding box in that frame
+    field: object
+    frame: str
+    extent: np.ndarray
+
+    @property
+    def true_frame(self) -> bool:
+        """Whether this is the example's own frame."""
+        return self.frame == "own"
 
 
 @dataclass
@@ -99,28 +103,24 @@ def learn_weights(settings: list[Setting], template, rounds: int = ROUNDS, progr
     prior = np.array([WEIGHTS[n] for n in names])
     gamma = np.array([(template.penalty_weights or WEIGHTS)[n] for n in names])
     base_handicap = {s.example: s.handicap for s in settings if s.true_frame}
-    own = {s.example: s for s in settings if s.true_frame}
     alternatives: list[tuple[np.ndarray, float, int]] = []    # (penalties of an embedding found, margin, example)
     report = GammaReport(weights={})
     for r in range(rounds):
         current = replace(template, penalty_weights=dict(zip(names, gamma)))
         violated, losses = 0, []
+        problems = [_problem(s.graph, current) for s in settings]
         # The true embeddings under the current Γ (the best placements near each example's own skeleton).
         truths = {}
-        for n, s in own.items():
-            problem = _problem(s.graph, current)
-            if problem is None:
+        for s, problem in zip(settings, problems):
+            if not s.true_frame or problem is None:
                 continue
             try:
                 best = search(near_truth(problem, s.truth), max_expansions=SEARCH_BUDGET)
             except RigFailedError:
                 continue
-            truths[n] = _vector(embedding_terms(problem, best.spheres), names)
-        for s in settings:
-            if s.example not in truths:
-                continue
-            problem = _problem(s.graph, current)
-            if problem is None:
+            truths[s.example] = _vector(embedding_terms(problem, best.spheres), names)
+        for s, problem in zip(settings, problems):
+            if s.example not in truths or problem is None:
                 continue
             try:
                 found = search(problem, max_expansions=SEARCH_BUDGET if s.true_frame else SEARCH_BUDGET // 5)
