@@ -169,7 +169,7 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
         raise RigFailedError(f"the {template.name} template needs {leaves} limb ends (head, hands, feet, "
                              f"tail...) but this shape has only {len(ends)}: is it the right template?")
     thick = np.flatnonzero(graph.radii >= FAT_FRACTION * graph.radii.max())
-    thinness = weights["fat"] * (1.0 - graph.radii / graph.radii.max())
+    thinness = weights["fat"] * thinness_of(graph)
     everything = np.arange(S)
     candidates = []
     for k, j in enumerate(reduced.joints):
@@ -182,7 +182,6 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
 
     feet = set(template.feet)
     is_foot = np.array([j in feet for j in reduced.joints])
-    lowest = graph.centers[:, 1].min()
     feet_cost = weights["feet"] * feet_height(graph)
 
     tpos = template.positions[reduced.joints]
@@ -207,7 +206,7 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
         if reduced.joints[k] in fat:
             cost += thinness[cols][None, :]
         if kids[k] and weights["height"] > 0:
-            cost += weights["height"] * height_offset(graph, tpos[k])[cols][None, :]
+            cost += weights["height"] * height_offset(graph, tpos[k, 1])[cols][None, :]
         cost[~np.isfinite(path)] = np.inf
         bone_cost[k] = cost
         bone_row[k] = np.full(S, -1, dtype=np.int64)
@@ -215,7 +214,7 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     root_cost = np.full(S, np.inf)
     root_cost[candidates[0]] = thinness[candidates[0]] if reduced.joints[0] in fat else 0.0
     if weights["height"] > 0:
-        root_cost[candidates[0]] += weights["height"] * height_offset(graph, tpos[0])[candidates[0]]
+        root_cost[candidates[0]] += weights["height"] * height_offset(graph, tpos[0, 1])[candidates[0]]
 
     names = [template.names[j] for j in reduced.joints]
     mirror_full = template.mirror_of()
@@ -231,9 +230,14 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
                             is_foot, shared_ok, weights, np.array([j in fat for j in reduced.joints]), tpos[:, 1].copy())
 
 
-def height_offset(graph: SphereGraph, position: np.ndarray) -> np.ndarray:
-    """[S] the height penalty of a joint whose template position is ``position`` [3] on each sphere."""
-    return ((graph.centers[:, 1] - position[1]) / HEIGHT_UNIT) ** 2
+def height_offset(graph: SphereGraph, height: float) -> np.ndarray:
+    """[S] the height penalty, on each sphere, of a joint whose template height is ``height``."""
+    return ((graph.centers[:, 1] - height) / HEIGHT_UNIT) ** 2
+
+
+def thinness_of(graph: SphereGraph) -> np.ndarray:
+    """[S] the fat penalty of a fat joint on each sphere: 1 - radius / largest radius."""
+    return 1.0 - graph.radii / graph.radii.max()
 
 
 def feet_height(graph: SphereGraph) -> np.ndarray:
@@ -247,16 +251,15 @@ def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
     spheres = [int(s) for s in spheres]
     graph, reduced = problem.graph, problem.reduced
     C, D, parents = graph.centers, graph.distances, reduced.parents
-    thin = 1.0 - graph.radii / graph.radii.max()
+    thin = thinness_of(graph)
     feet = feet_height(graph)
     unit = {name: 1.0 for name in problem.weights}
     terms = dict.fromkeys(problem.weights, 0.0)
-    terms["fat"] += float(thin[spheres[0]]) if _is_fat(problem, 0) else 0.0
+    terms["fat"] += float(thin[spheres[0]]) if problem.fat[0] else 0.0
     has_children = np.zeros(len(spheres), dtype=bool)
     has_children[parents[parents >= 0]] = True
-    template_heights = problem.heights
     for k in np.flatnonzero(has_children):
-        terms["height"] += float(((C[spheres[k], 1] - template_heights[k]) / HEIGHT_UNIT) ** 2)
+        terms["height"] += float(height_offset(graph, problem.heights[k])[spheres[k]])
     used = np.zeros(len(graph.radii), dtype=bool)
     for k in range(1, len(spheres)):
         p, s, u = parents[k], spheres[k], spheres[parents[k]]
@@ -267,7 +270,7 @@ def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
         terms["direction"] += 1.0 - (float(offset @ direction) / norm if norm > 0 else -1.0)
         if problem.is_foot[k]:
             terms["feet"] += float(feet[s])
-        if _is_fat(problem, k):
+        if problem.fat[k]:
             terms["fat"] += float(thin[s])
         target = np.array([s])
         if parents[p] >= 0:
@@ -282,10 +285,6 @@ def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
             terms["overlap"] += float(overlap_penalty(problem, k, u, here, target, unit)[0])
     return terms
 
-
-def _is_fat(problem: EmbeddingProblem, k: int) -> bool:
-    """Whether reduced joint k is one the template calls fat (its candidates are the thick spheres only)."""
-    return bool(problem.fat[k])
 
 
 def symmetry_penalty(problem: EmbeddingProblem, k: int, parent_sphere: int, spheres: np.ndarray,
