@@ -1,12 +1,17 @@
 """Rig accuracy against ground truth: the shared real characters and the project's own mannequins.
 
-    python benchmarks/accuracy.py [--shared ../shared] [--out DIR]
+    python benchmarks/accuracy.py [--shared ../shared] [--out DIR] [--cv [--folds 4]]
 
 For each real character in ``shared/data/rigged`` that has a template map, the rig is made as a user makes it
 (``autorig MESH --template T [--front AXIS] -o OUT.glb``) and the .glb is scored by ``shared/tools/score.py``,
 so the numbers mean what the shared scorer means: joint error as a fraction of the height (mean and worst
 over the template joints the ground truth maps) and skin-weight agreement on the dominant joint. The
 mannequins (``autorig.samples``) know their exact skeleton, so they are scored on joints only.
+
+With ``--cv``, also the cross-validation on the training corpus (``benchmarks/cross_validation.py``): each
+kind learned as ``templates/retrain.sh`` learns it (the biped everything, the quadruped its confidence) from the
+other folds of whole groups and tested on the held-out ones, before (hand-set) against after; the two kinds
+run side by side in two processes.
 
 Also checked per model: every non-tip joint inside the mesh (generalized winding number >= 0.5) and left
 and right not swapped (each left_ joint nearer the true left joint than the true right one).
@@ -113,7 +118,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
     parser.add_argument("--out", type=Path, help="keep the rigs here (default: a temporary folder)")
+    parser.add_argument("--cv", action="store_true", help="also cross-validate on shared/data/train")
+    parser.add_argument("--folds", type=int, default=4)
     args = parser.parse_args(argv)
+    cv = _start_cross_validation(args.shared, args.folds) if args.cv else None
     with tempfile.TemporaryDirectory() as tmp:
         out_dir = args.out or Path(tmp)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -126,7 +134,32 @@ def main(argv=None) -> int:
         ref = "{:.1f} / {:.1f} / {:.0f}".format(*r["reference"]) if r["reference"] else ""
         print(f"{r['model']:24s} {r['template']:9s} {r['mean']:10.1f} / {r['max']:5.1f}    {top1:>15s} {l1:>6s} "
               f"{str(r['inside']):>6s} {str(not r['swapped']):>6s} {r['seconds']:7.2f}   {ref}")
+    if cv is not None:
+        for future in cv:
+            print(future.result())
     return 0
+
+
+# What templates/retrain.sh learns for each kind.
+SHIPPED_PARTS = {"biped": None, "quadruped": ["confidence"]}
+
+
+def _start_cross_validation(shared: Path, folds: int):
+    """Futures of the cross-validation summaries of both kinds, each computed in a process of its own."""
+    from concurrent.futures import ProcessPoolExecutor
+    pool = ProcessPoolExecutor(max_workers=len(SHIPPED_PARTS))
+    futures = [pool.submit(_cross_validation, kind, shared, folds) for kind in SHIPPED_PARTS]
+    pool.shutdown(wait=False)
+    return futures
+
+
+def _cross_validation(kind: str, shared: Path, folds: int) -> str:
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import cross_validation
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = cross_validation.evaluate(kind, shared / "data" / "train", folds, Path(tmp), shared,
+                                         lambda _line: None, SHIPPED_PARTS[kind])
+    return "\n".join([cross_validation.summary(kind, rows)] + [cross_validation._line(r) for r in rows])
 
 
 if __name__ == "__main__":
