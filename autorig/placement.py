@@ -26,9 +26,7 @@ MAX_STRETCH = 1.33
 
 def leaves(template: Template) -> np.ndarray:
     """Indices of the template's leaf joints (the ends of the reduced skeleton)."""
-    has_child = np.zeros(len(template.names), dtype=bool)
-    has_child[template.parents[template.parents >= 0]] = True
-    return np.flatnonzero(~has_child)
+    return np.array([j for j, kids in enumerate(template.children) if not kids], dtype=np.int64)
 
 
 def stretched_template(extent: np.ndarray, template: Template, mean_extent) -> np.ndarray:

@@ -179,7 +179,6 @@ def base_description(name_or_path: str | Path) -> str:
 
 def template_json(data: dict) -> str:
     """A template's JSON text as the built-in files are laid out: one joint, pair or helper per line."""
-    import json
     lines = ["{"]
     items = list(data.items())
     for n, (key, value) in enumerate(items):
