@@ -40,7 +40,6 @@ def run_cli(*args) -> subprocess.CompletedProcess:
 
 def studio_skeleton(sample) -> Skeleton:
     """The sample's true skeleton, with a weightless helper (an IK target) hanging from the hips."""
-    names = [n for n in sample.joints]
     template = load_template("biped")
     names = [n for n in template.names if n in sample.joints]
     parents = [names.index(template.names[template.parents[template.names.index(n)]])

@@ -40,7 +40,6 @@ def voxelize(vertices: np.ndarray, faces: np.ndarray, resolution: int) -> VoxelG
     vertices [V, 3], faces [F, 3]: the mesh in the canonical frame. resolution: cells along the bounding box's
     longest side (>= 8).
     """
-    import igl
 
     if resolution < 8:
         raise ValueError(f"voxel resolution must be at least 8, got {resolution}")

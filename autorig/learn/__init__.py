@@ -16,7 +16,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..confidence import GOOD_ERROR
 from ..template import Helper, Template
 from .examples import Example, read_examples
 from .proportions import (example_positions, fat_joints, feet, fill_from_others, mirror_pairs, skeleton_of_base,
