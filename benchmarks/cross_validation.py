@@ -54,7 +54,7 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
     import score
     import autorig
     from autorig.exchange import write_file_atomic
-    from autorig.learn import learn_template
+    from autorig.learn import PARTS, learn_template
     from autorig.template import load_template
 
     items = corpus(train, kind)
@@ -66,7 +66,7 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
         test = [(f, g) for f, g in items if fold_of[g] == fold]
         trained_on = [f for f, g in items if fold_of[g] != fold]
         start = time.perf_counter()
-        learned = learn_template(trained_on, base=handset, name=kind, **({"parts": parts} if parts else {}))
+        learned = learn_template(trained_on, base=handset, name=kind, parts=parts or PARTS)
         template_path = out_dir / f"{kind}_fold{fold}.json"
         write_file_atomic(template_path, json.dumps(learned.template.to_dict()).encode())
         say(f"{kind} fold {fold + 1}/{folds}: learned from {len(trained_on)} in {time.perf_counter() - start:.0f} s")
