@@ -320,7 +320,9 @@ def templates_command():
                    "the rigged glTF files' own joints and hierarchy are learned.")
 @click.option("--name", metavar="NAME", help="The learned template's name. [default: the base's, or the file's stem]")
 @click.option("--learn", "parts", default="proportions,penalties,placement,confidence", show_default=True,
-              metavar="PARTS", help="What to learn (comma-separated); with --template the rest is the base's.")
+              metavar="PARTS", help="What to learn (comma-separated, of proportions, penalties, orientation, "
+                                    "placement, confidence); with --template the rest is the base's. orientation: "
+                                    "how much detection weighs the head/tail cue (four-legged templates).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @_common_options
 def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: str | None, parts: str,

@@ -10,6 +10,7 @@ A template is a JSON file (see ``templates/biped.json``)::
      "penalty_weights": {"length": 1.0, ...},        # optional: the embedding's Γ (autorig.embed.penalties)
      "helpers": [{"name": "ik_knee_L", "parent": "hips", "offset": [0.1, 0.3, 0.6]}],  # optional
      "confidence": {...},                            # optional: a calibrated model (autorig.confidence)
+     "head_tail": 1.2,                               # optional: weight of the head/tail cue (autorig.orient)
      "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
 
 Positions are in the canonical frame used throughout autorig: +y up, +z the direction the character faces,
@@ -78,6 +79,8 @@ class Template:
     learned_from  what ``autorig learn`` made the template from (kept for the record), or None
     placement  {"alpha": [J]}: how far each joint is pulled towards the stretched template
                (``autorig.placement``), or None
+    head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.orient``), in
+               penalty units; 0 leaves front and back to the embedding alone
     """
     name: str
     names: tuple[str, ...]
@@ -91,6 +94,7 @@ class Template:
     confidence: dict | None = field(default=None, compare=False, hash=False)
     learned_from: dict | None = field(default=None, compare=False, hash=False)
     placement: dict | None = field(default=None, compare=False, hash=False)
+    head_tail: float = field(default=0.0, compare=False, hash=False)
 
     @property
     def children(self) -> list[list[int]]:
@@ -138,6 +142,8 @@ class Template:
         if self.placement is not None:
             data["placement"] = {"alpha": [round(float(a), 4) for a in self.placement["alpha"]],
                                  "extent": [round(float(e), 4) for e in self.placement["extent"]]}
+        if self.head_tail:
+            data["head_tail"] = round(float(self.head_tail), 4)
         if self.confidence is not None:
             data["confidence"] = self.confidence
         if self.learned_from is not None:
@@ -312,6 +318,9 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         if h["name"] in index or any(h["name"] == other.name for other in helpers):
             raise bad(f"helper {h['name']!r} has the name of another joint")
         helpers.append(Helper(h["name"], index[h["parent"]], offset))
+    head_tail = data.get("head_tail", 0.0)
+    if isinstance(head_tail, bool) or not isinstance(head_tail, (int, float)) or not 0 <= head_tail < float("inf"):
+        raise bad('"head_tail" must be a number >= 0')
     confidence = data.get("confidence")
     if confidence is not None and not isinstance(confidence, dict):
         raise bad('"confidence" must be an object')
@@ -340,6 +349,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         confidence=confidence,
         learned_from=data.get("learned_from"),
         placement=placement,
+        head_tail=float(head_tail),
     )
 
 

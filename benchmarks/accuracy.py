@@ -141,7 +141,8 @@ def main(argv=None) -> int:
 
 
 # What templates/retrain.sh learns for each kind.
-SHIPPED_PARTS = {"biped": None, "quadruped": ["confidence"]}
+SHIPPED_PARTS = {"biped": ["proportions", "penalties", "placement", "confidence"],
+                 "quadruped": ["orientation", "confidence"]}
 
 
 def _start_cross_validation(shared: Path, folds: int):

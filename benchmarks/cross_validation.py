@@ -10,7 +10,8 @@ it, with the axes given (+y up, +z front) and detected, and scored by ``shared/t
 the hand-set template of the same kind (``templates/handset/``, the base the built-in ones are learned from).
 
 Reported per kind: mean and worst joint error (% of the height), weight top-1 agreement, whether the detected
-axes gave the same rig (every joint within 1 % of the height), and the confidence against the true error
+axes gave the same rig (every joint within 1 % of the height), whether they are found with the mesh turned to
+face -z and turned Z-up (facing -y) as other tools write files, and the confidence against the true error
 (rigs with their worst joint more than 20 % off should score below 0.5, those within 10 % at 0.5 or above).
 """
 from __future__ import annotations
@@ -87,12 +88,31 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
                               "worst": result["joints"]["worst"][0][0], "top1": result["weights"]["top1_pct"],
                               "confidence": rig.info["confidence"], "front": rig.info["front"],
                               "up": rig.info["up"], "joints": rig.joints}
-            a, b = row.get("after", {}), row.get("after_auto", {})
-            row["same_axes"] = ("joints" in a and "joints" in b and float(np.max(np.linalg.norm(
-                a["joints"] - b["joints"], axis=1))) <= 0.01 * gt["height"])
+            a = row.get("after", {})
+            row["same_axes"] = _same(a, row.get("after_auto", {}), gt["height"])
+            # The same character as files in other conventions: detection must find the same rig there.
+            for label, (turn, axes) in TURNS.items():
+                try:
+                    rig = autorig.rig((turn(gt["V"]), gt["F"]), template_path, autorig.RigOptions())
+                    row[label] = (rig.info["up"], rig.info["front"]) == axes
+                except Exception:
+                    row[label] = False
             rows.append(row)
             say(_line(row))
     return rows
+
+
+# Turns of a +y up, +z front file into other conventions, each with the axes detection should find.
+TURNS = {
+    "facing_back": (lambda v: v * [-1, 1, -1], ("y", "-z")),
+    "z_up": (lambda v: np.c_[v[:, 0], -v[:, 2], v[:, 1]], ("z", "-y")),
+}
+
+
+def _same(a: dict, b: dict, height: float) -> bool:
+    """Whether two rigs' joints all lie within 1 % of the height of each other."""
+    return ("joints" in a and "joints" in b
+            and float(np.max(np.linalg.norm(a["joints"] - b["joints"], axis=1))) <= 0.01 * height)
 
 
 def _cell(r: dict) -> str:
@@ -102,8 +122,9 @@ def _cell(r: dict) -> str:
 
 
 def _line(row: dict) -> str:
+    wrong = "".join(f" {label}:WRONG" for label in TURNS if not row.get(label, True))
     return (f"{row['model']:38s} {_cell(row.get('before', {'error': ''}))} | {_cell(row.get('after', {'error': ''}))} | "
-            f"{_cell(row.get('after_auto', {'error': ''}))} {'same' if row['same_axes'] else 'DIFFERENT'}")
+            f"{_cell(row.get('after_auto', {'error': ''}))} {'same' if row['same_axes'] else 'DIFFERENT'}{wrong}")
 
 
 def summary(kind: str, rows: list[dict]) -> str:
@@ -122,7 +143,10 @@ def summary(kind: str, rows: list[dict]) -> str:
                      f"{np.mean([r['top1'] for r in ok]):5.1f} %  failed {len(rows) - len(ok)}  | confidence: "
                      f"{int(np.sum(bad & (conf >= 0.5)))}/{int(bad.sum())} >20 % rigs at >= 0.5, "
                      f"{int(np.sum(good & (conf < 0.5)))}/{int(good.sum())} <=10 % rigs below 0.5")
-    lines.append(f"  detected axes give the same rig: {sum(r['same_axes'] for r in rows)}/{len(rows)}")
+    n = len(rows)
+    lines.append(f"  detected axes give the same rig: {sum(r['same_axes'] for r in rows)}/{n}; axes found for the mesh "
+                 f"turned to face -z: {sum(r.get('facing_back', False) for r in rows)}/{n}; Z up, facing -y: "
+                 f"{sum(r.get('z_up', False) for r in rows)}/{n}")
     return "\n".join(lines)
 
 

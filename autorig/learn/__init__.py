@@ -6,6 +6,7 @@
               -> features    mirror pairs, feet, fat joints (``proportions``)
               -> discretize  each example's sphere graph, in its own frame and facing the wrong ways
               -> Γ           max-margin penalty weights (``gamma``)
+              -> head/tail   how much orientation detection weighs the outline's head/tail cue (``head_tail``)
               -> confidence  a calibrated model, on rigs of held-out folds (``calibrate``)
 
 The result is a ``Template`` that ``--template`` takes once written with ``Template.to_dict``.
@@ -22,7 +23,7 @@ from .proportions import (example_positions, fat_joints, feet, fill_from_others,
                           skeleton_of_examples, symmetrized)
 
 FOLDS = 3   # calibration folds (whole groups of examples held out together)
-PARTS = ("proportions", "penalties", "placement", "confidence")   # what a template can learn
+PARTS = ("proportions", "penalties", "orientation", "placement", "confidence")   # what a template can learn
 
 
 @dataclass
@@ -61,7 +62,7 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     template = _template(skeleton, per_example, examples, base, name)
     if "proportions" not in parts:
         template = replace(template, positions=base.positions.copy())
-    settings, fields = _settings(examples, per_example, say)
+    settings, fields, cues = _settings(examples, per_example, say)
     depths = np.mean([np.maximum(f.depth(p), 0.0) for f, p in zip(fields, per_example)], axis=0)
     template = replace(template, fat=tuple(_fat(template, depths)))
     gamma_rounds = []
@@ -70,6 +71,13 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
         report = learn_weights(_reduced_settings(settings, template), template, progress=say)
         template = replace(template, penalty_weights=report.weights)
         gamma_rounds = report.rounds
+    head_tail = {}
+    if "orientation" in parts:
+        from .head_tail import learn_head_tail
+        weight, head_tail = learn_head_tail(settings, cues, template)
+        template = replace(template, head_tail=weight)
+        say(f"head/tail cue weight {weight:.2f}: examples whose own frame does not win clearly "
+            f"{head_tail.get('unclear_without')} without it, {head_tail.get('unclear_with')} with it")
     confidence = {}
     if "placement" in parts or "confidence" in parts:
         template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say,
@@ -77,7 +85,7 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     spread = np.sqrt(np.mean(np.sum((per_example - template.positions) ** 2, axis=2), axis=0))
     record = {"examples": [e.name for e in examples], "base": base.name if base is not None else None,
               "learned": [p for p in PARTS if p in parts],
-              "penalty_rounds": gamma_rounds,
+              "penalty_rounds": gamma_rounds, "head_tail": head_tail,
               "mean_spread": round(float(np.mean(spread)), 4), "confidence": confidence}
     template = replace(template, learned_from=record)
     return Learned(template, [e.name for e in examples], spread, gamma_rounds, confidence)
@@ -103,19 +111,21 @@ def _template(skeleton, per_example: np.ndarray, examples: list[Example], base: 
 
 
 def _settings(examples, per_example, say):
-    """The learner's view of every example: (settings for Γ, fields [N]) with the full truth [J, 3] in each
-    setting (``_reduced_settings`` picks the reduced joints)."""
-    from ..orient import _handicap
+    """The learner's view of every example: (settings for Γ, fields [N], the outline's head/tail cue in each
+    setting) with the full truth [J, 3] in each setting (``_reduced_settings`` picks the reduced joints)."""
+    from ..orient import _handicap, head_tail_cue
     from ..pipeline import discretize
     from .gamma import Setting
-    settings, fields = [], []
+    settings, fields, cues = [], [], []
     for n, (example, truth) in enumerate(zip(examples, per_example)):
         prepared = example.prepared()
         field, graph = discretize(prepared)
         fields.append(field)
         for up, front in _frames(example.up, example.front):
             change = prepared.frame_change(up, front)
-            extent = np.ptp(change.apply(prepared.work_vertices), axis=0)
+            moved = change.apply(prepared.work_vertices)
+            extent = np.ptp(moved, axis=0)
+            cues.append(head_tail_cue(moved))
             if (up, front) == (example.up, example.front):
                 settings.append(Setting(graph, truth, _handicap(up, front), n, field, "own", extent))
                 continue
@@ -125,7 +135,7 @@ def _settings(examples, per_example, say):
                                     "back" if (up, front[-1]) == (example.up, example.front[-1]) else "other",
                                     extent))
         say(f"discretized {example.name} ({len(graph.radii)} spheres)")
-    return settings, fields
+    return settings, fields, cues
 
 
 def _frames(up: str, front: str) -> list[tuple[str, str]]:
