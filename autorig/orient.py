@@ -35,7 +35,8 @@ AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too
 CONVENTION_BONUS = 0.05   # penalty per axis a frame off +y up / +z front must beat the convention by
 DETECTION_EXPANSIONS = 200  # A* budget per fully searched frame (its greedy embedding is used beyond it)
-FULL_SEARCHES = 3            # frames searched after the greedy ranking (the best two of them to the end)
+FULL_SEARCHES = 3            # frames searched after the greedy ranking
+DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for the two best when they face opposite ways (below)
 FEET_BAND = 0.08  # the lowest part of the shape (fraction of its height) taken as where its feet are
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
 
@@ -136,23 +137,34 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
         prior[(u, f)] = _handicap(u, f) - (template.head_tail * head_tail_cue(change.apply(prepared.work_vertices))
                                            if template.head_tail else 0.0)
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
-    optimal = {}
+    bounds, searched_long = {}, set()
     for key in sorted(costs, key=lambda k: (costs[k] + prior[k], k))[:FULL_SEARCHES]:
-        costs[key], optimal[key] = _embedding_cost(problems[key], DETECTION_EXPANSIONS)
-    # The two best are compared on their best embeddings: a greedy one can cost many times the optimum (a deer
-    # facing the right way, 11.9 against 1.9), which no cue outweighs.
-    while True:
-        unfinished = [k for k in sorted(optimal, key=lambda k: (costs[k] + prior[k], k))[:2] if not optimal[k]]
-        if not unfinished:
+        costs[key], bounds[key] = _embedding_cost(problems[key], DETECTION_EXPANSIONS)
+    # When the two best face opposite ways, front and back hang on small gaps (the cue's, a biped's embedding's),
+    # and a greedy embedding can cost many times the optimum (a deer facing the right way, 11.9 against 1.9):
+    # they are compared on longer searches. Not when the runner-up cannot beat the leader whatever its search
+    # finds (its A* bound says so), nor between frames that disagree on up or on the front axis (their gaps
+    # are large, and a shape the template does not fit would run out both searches for nothing).
+    while len(bounds) > 1:
+        leader, runner_up = sorted(bounds, key=lambda k: (costs[k] + prior[k], k))[:2]
+        if (runner_up != (leader[0], _flipped(leader[1]))
+                or bounds[runner_up] + prior[runner_up] >= costs[leader] + prior[leader]):
             break
-        for key in unfinished:
-            costs[key], _ = _embedding_cost(problems[key], MAX_EXPANSIONS)
-            optimal[key] = True    # searched as far as the embedding itself is
+        todo = [k for k in (leader, runner_up) if bounds[k] < costs[k] and k not in searched_long]
+        if not todo:
+            break
+        for key in todo:
+            costs[key], bounds[key] = _embedding_cost(problems[key], DECISION_EXPANSIONS)
+            searched_long.add(key)
     costs = {f"{u}/{f}": cost + prior[(u, f)] for (u, f), cost in costs.items()}
     ranked = sorted(costs, key=lambda k: (costs[k], k))
     margin = costs[ranked[1]] - costs[ranked[0]] if len(ranked) > 1 else 0.0
     u, f = ranked[0].split("/")
     return Orientation(u, f, costs, float(margin), [float(v) for v in symmetry])
+
+
+def _flipped(axis: str) -> str:
+    return axis[1:] if axis.startswith("-") else "-" + axis
 
 
 def _handicap(up: str, front: str) -> float:
@@ -169,18 +181,18 @@ def _problem(graph, template):
         return None
 
 
-def _embedding_cost(problem, expansions: int) -> tuple[float, bool]:
-    """(penalty of the best embedding found within ``expansions`` A* steps (0: greedy only), whether the search
-    finished); (inf, True) if there is none."""
+def _embedding_cost(problem, expansions: int) -> tuple[float, float]:
+    """(penalty of the best embedding found within ``expansions`` A* steps (0: greedy only), a lower bound on
+    any embedding's: the penalty itself when the search finished); (inf, inf) if there is none."""
     from .embed.search import search
     from .errors import RigFailedError
     if problem is None:
-        return float("inf"), True
+        return float("inf"), float("inf")
     try:
         found = search(problem, max_expansions=expansions)
     except RigFailedError:
-        return float("inf"), True
-    return float(found.cost), bool(found.optimal)
+        return float("inf"), float("inf")
+    return float(found.cost), float(found.bound)
 
 
 def reorient(prepared, field, graph, orientation: Orientation):

@@ -21,12 +21,18 @@ from .penalties import EmbeddingProblem, backtrack_penalty, overlap_penalty, sym
 @dataclass
 class Embedding:
     """spheres [K] sphere of each reduced joint; paths [K] sphere paths of each reduced bone, parent to joint
-    (the root's is just its sphere); cost the total penalty; expanded number of states taken off the queue."""
+    (the root's is just its sphere); cost the total penalty; expanded number of states taken off the queue;
+    bound: no embedding costs less (the cost itself when optimal; the search frontier's when out of budget)."""
     spheres: np.ndarray
     paths: list[list[int]]
     cost: float
     expanded: int
     optimal: bool = True
+    bound: float | None = None
+
+    def __post_init__(self):
+        if self.bound is None:
+            self.bound = float(self.cost)
 
 
 GREEDY_STARTS = 8
@@ -126,8 +132,10 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
             counter += 1
 
     expanded = 0
+    frontier = 0.0    # the queue pops in order of f, an underestimate of any completion: a lower bound
     while queue:
         f, _, g, placed = heapq.heappop(queue)
+        frontier = f
         if len(placed) == K:
             return Embedding(np.array(placed), _paths(problem, placed), g, expanded)
         expanded += 1
@@ -139,7 +147,8 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
             counter += 1
     if greedy is not None:
         # Out of budget: the greedy embedding is complete and usually close; the caller is told.
-        return Embedding(np.array(greedy[0]), _paths(problem, greedy[0]), greedy[1], expanded, optimal=False)
+        return Embedding(np.array(greedy[0]), _paths(problem, greedy[0]), greedy[1], expanded, optimal=False,
+                         bound=min(frontier, greedy[1]))
     raise RigFailedError("the template could not be embedded in this shape: no placement of its joints "
                          "keeps every limb inside the mesh")
 

@@ -8,8 +8,8 @@ from exactly that: for every example, every frame detection weighs against its o
 
     (cost(F) - w * cue(F)) - (cost(own) - w * cue(own)) >= MARGIN,
 
-where cost is the penalty of the embedding detection would find in that frame (searched to the end facing
-backwards, as detection searches its two best frames). The convention's handicap is
+where cost is the penalty of the embedding detection would find in that frame (searched long facing backwards,
+as detection searches its two best frames). The convention's handicap is
 left out: the corpus is in the convention, users' files need not be. ``w`` minimises the mean squared violation
 plus a small pull towards 0 (a cue that does not help should not weigh).
 """
@@ -29,10 +29,9 @@ def learn_head_tail(settings, cues, template) -> tuple[float, dict]:
     does not win clearly (by MARGIN) without the cue and with it."""
     from scipy.optimize import minimize_scalar
 
-    from ..embed.search import MAX_EXPANSIONS
-    from ..orient import DETECTION_EXPANSIONS, _embedding_cost, _problem
-    # Facing backwards is what detection compares in full; the other frames it ranks on a short search.
-    costs = np.array([_embedding_cost(_problem(s.graph, template), MAX_EXPANSIONS if s.frame in ("own", "back")
+    from ..orient import DECISION_EXPANSIONS, DETECTION_EXPANSIONS, _embedding_cost, _problem
+    # Facing backwards is what detection compares on a long search; the other frames it ranks on a short one.
+    costs = np.array([_embedding_cost(_problem(s.graph, template), DECISION_EXPANSIONS if s.frame in ("own", "back")
                                       else DETECTION_EXPANSIONS)[0] for s in settings])
     own = {s.example: n for n, s in enumerate(settings) if s.true_frame and np.isfinite(costs[n])}
     gaps, cue_gaps, examples = [], [], []
