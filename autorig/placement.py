@@ -9,10 +9,14 @@ to trust that over the refined position, joint by joint:
                mean box (``extent``), clipped to [1 / MAX_STRETCH, MAX_STRETCH]; the frame is centred on the
                box in x and z and has the feet at y = 0, so a scale about the origin stretches the template
                over the body (a long-bodied animal, a wide one)
-    placed_j = refined_j + alpha_j * (stretch * template_j - refined_j)
+    placed_j = refined_j + alpha_j * (stretch * template_j - refined_j) + box * offset_j
 
 ``alpha`` [J] is fitted on rigs of the examples by least squares and clipped to [0, 1] (0: keep the refined
 joint; 1: take the template's); leaves keep alpha 0, so the ends the embedding found stay where they are.
+``offset`` [J, 3] (optional) is what is still left between those rigs and their truths, on average, as a
+fraction of each mesh's bounding box ``box`` [3] (template frame): where the embedding puts a joint and where
+the examples' artists put it differ by a convention (a quadruped's root at the rump, not in the belly's
+thickest sphere), and a convention carries over to characters the examples do not include. Tips keep 0.
 """
 from __future__ import annotations
 
@@ -45,6 +49,8 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
         return joints
     alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
     placed = joints + alpha * (stretched_template(extent, template, template.placement["extent"]) - joints)
+    if template.placement.get("offset") is not None:
+        placed = placed + np.asarray(template.placement["offset"], dtype=float) * np.asarray(extent, float)
     if field is not None:
         solid = np.array([not template.is_tip(j) for j in range(len(template.names))])
         depth = field.depth(placed)
@@ -68,4 +74,26 @@ def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list
     alpha = np.where(den > 1e-12, num / np.maximum(den, 1e-12), 0.0)
     alpha = np.clip(alpha, 0.0, 1.0)
     alpha[leaves(template)] = 0.0
+    for i, j in template.symmetry:    # a left joint and its mirror image move alike
+        alpha[i] = alpha[j] = (alpha[i] + alpha[j]) / 2
     return alpha
+
+
+def fit_offset(placed: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
+               weights: list[np.ndarray] | None = None) -> np.ndarray:
+    """[J, 3] the mean of what separates the ``placed`` rigs [N][J, 3] (after alpha) from their ``truths``
+    [N][J, 3], each as a fraction of its mesh's box ``extents`` [N][3], weighted by ``weights`` [N][J] (0 where
+    an example lacks the joint); 0 for tips and for joints no example has."""
+    J = len(template.names)
+    total, count = np.zeros((J, 3)), np.zeros(J)
+    for n, (P, T) in enumerate(zip(placed, truths)):
+        w = np.ones(J) if weights is None else np.asarray(weights[n], float)
+        total += w[:, None] * (T - P) / np.asarray(extents[n], float)
+        count += w
+    offset = np.where(count[:, None] > 0, total / np.maximum(count, 1e-12)[:, None], 0.0)
+    offset[[j for j in range(J) if template.is_tip(j)]] = 0.0
+    mirror = np.array([-1.0, 1.0, 1.0])
+    for i, j in template.symmetry:    # a left joint and its mirror image move as each other's mirror images
+        offset[i] = (offset[i] + offset[j] * mirror) / 2
+        offset[j] = offset[i] * mirror
+    return offset

@@ -77,8 +77,8 @@ class Template:
     helpers    weightless joints riding at fixed offsets from template joints (``Helper``)
     confidence a calibrated confidence model (``autorig.confidence.ConfidenceModel.to_dict``), or None
     learned_from  what ``autorig learn`` made the template from (kept for the record), or None
-    placement  {"alpha": [J]}: how far each joint is pulled towards the stretched template
-               (``autorig.placement``), or None
+    placement  {"alpha": [J], "extent": [3], "offset": [J, 3] (optional)}: how far each joint is pulled
+               towards the stretched template, and moved by the learned offset (``autorig.placement``), or None
     head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.orient``), in
                penalty units; 0 leaves front and back to the embedding alone
     """
@@ -142,6 +142,9 @@ class Template:
         if self.placement is not None:
             data["placement"] = {"alpha": [round(float(a), 4) for a in self.placement["alpha"]],
                                  "extent": [round(float(e), 4) for e in self.placement["extent"]]}
+            if self.placement.get("offset") is not None:
+                data["placement"]["offset"] = [[round(float(v), 4) for v in row]
+                                               for row in self.placement["offset"]]
         if self.head_tail:
             data["head_tail"] = round(float(self.head_tail), 4)
         if self.confidence is not None:
@@ -334,8 +337,15 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
                 or not all(isinstance(e, (int, float)) and e > 0 for e in extent)):
             raise bad(f'"placement" needs "alpha": {len(names)} numbers in [0, 1], one per joint, and '
                       f'"extent": three positive numbers')
-        # alpha is listed in the file's joint order; the template's is parents-first.
+        offset = placement.get("offset")
+        if offset is not None and not (isinstance(offset, list) and len(offset) == len(names) and all(
+                isinstance(row, list) and len(row) == 3 and all(isinstance(v, (int, float)) and not isinstance(
+                    v, bool) and abs(v) < 10 for v in row) for row in offset)):
+            raise bad(f'"placement" "offset" must be {len(names)} rows of three numbers, one per joint')
+        # alpha and offset are listed in the file's joint order; the template's is parents-first.
         placement = {"alpha": [float(alpha[old[n]]) for n in order], "extent": [float(e) for e in extent]}
+        if offset is not None:
+            placement["offset"] = [[float(v) for v in offset[old[n]]] for n in order]
     return Template(
         name=str(data.get("name", default_name)),
         names=tuple(order),

@@ -142,7 +142,7 @@ def main(argv=None) -> int:
 
 # What templates/retrain.sh learns for each kind.
 SHIPPED_PARTS = {"biped": ["proportions", "penalties", "placement", "confidence"],
-                 "quadruped": ["orientation", "confidence"]}
+                 "quadruped": ["orientation", "placement", "confidence"]}
 
 
 def _start_cross_validation(shared: Path, folds: int):

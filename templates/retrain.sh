@@ -10,11 +10,11 @@ SHARED="${1:-../shared}"
 # What each learns is what rigged unseen corpus groups better (benchmarks/cross_validation.py). The biped learns
 # all but the head/tail cue's weight (the cue is for a head on a neck; it turned bipeds round). The four-legged
 # templates keep their hand-set proportions and penalty weights (the learned ones rigged worse: mean joint error
-# 14.5 % against 11.8 %) and learn the head/tail cue's weight and their confidence.
+# 14.5 % against 11.8 %) and learn the head/tail cue's weight, the placement (10.3 %) and their confidence.
 learn() {
     autorig learn "$SHARED/data/train" "$SHARED/data/rigged" --template "templates/handset/$1.json" \
         --name "$1" -o "templates/$1.json" --learn "$2"
 }
 learn biped proportions,penalties,placement,confidence
-learn quadruped orientation,confidence
-learn horse orientation,confidence
+learn quadruped orientation,placement,confidence
+learn horse orientation,placement,confidence

@@ -29,11 +29,16 @@ def mannequin_sample():
 
 @lru_cache(maxsize=None)
 def rigged_mannequin():
-    """(sample, rig): the adult T-pose mannequin and its biped rig."""
+    """(sample, rig): the adult T-pose mannequin and its rig by the hand-set biped, whose joints sit where the
+    mannequin's own skeleton has them (the built-in biped follows the corpus artists' conventions), so that a
+    motion made on the true skeleton (``mannequin_bvh``) fits the rig."""
+    from pathlib import Path
+
     import autorig
 
     sample = mannequin_sample()
-    return sample, autorig.rig((sample.vertices, sample.faces), "biped")
+    handset = Path(__file__).resolve().parents[1] / "templates" / "handset" / "biped.json"
+    return sample, autorig.rig((sample.vertices, sample.faces), handset)
 
 
 def mannequin_bvh(poses: list[dict[str, tuple[float, float, float]]], root_moves: list[tuple[float, float, float]],

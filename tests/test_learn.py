@@ -25,6 +25,7 @@ from autorig.learn.gamma import Constraint, _solve
 from autorig.learn.proportions import mirror_pairs
 from autorig.mesh import prepare
 from autorig.pipeline import discretize
+from autorig.placement import fit_offset, learned_placement
 from autorig.samples import mannequin
 from autorig.template import load_template, template_from_dict
 
@@ -113,18 +114,43 @@ def test_template_file_round_trip_and_checks(learned_file):
     assert again.penalty_weights == pytest.approx(template.penalty_weights, abs=1e-4)
     assert again.confidence == template.confidence
     assert again.placement["alpha"] == pytest.approx(template.placement["alpha"], abs=1e-4)
+    assert np.allclose(again.placement["offset"], template.placement["offset"], atol=1e-4)
     # The confidence is the calibrated model's, and the placement pulls inner joints only.
     assert template.confidence["kind"] == "logistic"
     alpha = dict(zip(template.names, template.placement["alpha"]))
     assert all(alpha[n] == 0 for n in template.names if n.endswith("_end"))
     with pytest.raises(TemplateError, match="placement"):
         template_from_dict({**data, "placement": {"alpha": [2.0] * len(template.names), "extent": [1, 1, 1]}})
+    with pytest.raises(TemplateError, match="offset"):
+        template_from_dict({**data, "placement": {**data["placement"], "offset": [[0, 0]] * len(template.names)}})
     with pytest.raises(TemplateError, match="unknown penalties"):
         template_from_dict({**data, "penalty_weights": {"lenght": 1.0}})
     with pytest.raises(TemplateError, match=">= 0"):
         template_from_dict({**data, "penalty_weights": {"length": -1}})
     with pytest.raises(TemplateError, match="helper"):
         template_from_dict({**data, "helpers": [{"name": "x", "parent": "nobody", "offset": [0, 0, 0]}]})
+
+
+def test_placement_offset_is_the_mean_convention_left_over():
+    """Rigs that all sit a tenth of their box behind their truth get that tenth back, box by box; tips and
+    joints no example has keep 0."""
+    template = load_template(ROOT / "templates" / "handset" / "quadruped.json")
+    J = len(template.names)
+    rng = np.random.default_rng(7)
+    boxes = [np.array([0.4, 1.0, 1.6]), np.array([0.3, 1.0, 0.8])]
+    truths = [rng.normal(size=(J, 3)) for _ in boxes]
+    shift = np.zeros((J, 3))
+    shift[:, 2] = -0.1
+    placed = [t + shift * box for t, box in zip(truths, boxes)]
+    known = [np.ones(J), np.ones(J)]
+    hips, tail = template.names.index("hips"), template.names.index("tail_end")
+    known[0][hips] = known[1][hips] = 0.0
+    offset = fit_offset(placed, truths, boxes, template, known)
+    solid = [j for j in range(J) if not template.is_tip(j) and j != hips]
+    assert np.allclose(offset[solid], -shift[solid])
+    assert np.all(offset[tail] == 0) and np.all(offset[hips] == 0)
+    moved = replace(template, placement={"alpha": [0.0] * J, "extent": [0.4, 1.0, 1.6], "offset": offset.tolist()})
+    assert np.allclose(learned_placement(placed[1], moved, boxes[1])[solid], truths[1][solid])
 
 
 def test_penalty_terms_add_up_to_the_search_cost():

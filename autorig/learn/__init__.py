@@ -170,7 +170,6 @@ def group_of(example: Example) -> str:
 def _calibrated(template, skeleton, examples, per_example, extents, settings, say, parts=PARTS):
     """``template`` with its learned placement and a confidence model, both fitted on rigs of held-out folds
     (``placement.fit_alpha``, ``calibrate``)."""
-    from ..placement import fit_alpha
     from .calibrate import fit, rig_sample, sample_row
     groups = sorted({group_of(e) for e in examples})
     fold_of_group = {g: k % FOLDS for k, g in enumerate(groups)}
@@ -179,7 +178,7 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
     sigma = np.concatenate([[0.0], log_lengths.std(axis=0)[1:]])
     scored = [np.array([skeleton.source[j] is not None and skeleton.source[j] in e.key_of
                         and not template.is_tip(j) for j in range(len(template.names))]) for e in examples]
-    samples = []
+    samples, sample_folds = [], []
     for fold in sorted(set(folds.tolist())):
         train = folds != fold
         if train.sum() < 2:
@@ -193,21 +192,41 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
             sample = rig_sample(s.field, s.graph, held_out, s.truth, scored[s.example], s.true_frame, s.extent)
             if sample is not None:
                 samples.append(sample)
+                sample_folds.append(fold)
         say(f"calibration fold {fold + 1}/{len(set(folds.tolist()))}: {len(samples)} rigs")
-    own = [s for s in samples if s.own_frame]
-    if own and "placement" in parts:
-        mean_extent = extents.mean(axis=0)
-        alpha = fit_alpha([s.refined for s in own], [s.truth for s in own], [s.extent for s in own], template,
-                          mean_extent, [s.scored.astype(float) for s in own])
-        template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
+    sample_folds = np.array(sample_folds)
+    mean_extent = extents.mean(axis=0)
+    placing = "placement" in parts and any(s.own_frame for s in samples)
+    if placing:
+        template = _placed(template, samples, mean_extent)
     if "confidence" not in parts:
         return template, {}
-    rows = [sample_row(s, template, sigma) for s in samples]
+    # The confidence sees each calibration rig placed as a new character would be: by the placement fitted on
+    # the other folds (fitted on the rig itself, it would look better than it will).
+    placed_by = {}
+    for fold in sorted(set(sample_folds.tolist())):
+        others = [o for o, f in zip(samples, sample_folds) if f != fold]
+        placed_by[fold] = (_placed(template, others, mean_extent) if placing and any(o.own_frame for o in others)
+                           else template)
+    rows = [sample_row(s, placed_by[fold], sigma) for s, fold in zip(samples, sample_folds)]
     worst = np.array([w for _, w in rows])
     if len(rows) < 2:
         return template, {"skipped": "too few calibration rigs"}
     model = fit([r for r, _ in rows], worst, sigma)
     return replace(template, confidence=model.to_dict()), model.record
+
+
+def _placed(template, samples, mean_extent: np.ndarray):
+    """``template`` with the placement (alpha, then offset) fitted on the own-frame rigs among ``samples``."""
+    from ..placement import fit_alpha, fit_offset, learned_placement
+    own = [s for s in samples if s.own_frame]
+    known = [s.scored.astype(float) for s in own]
+    truths, boxes = [s.truth for s in own], [s.extent for s in own]
+    alpha = fit_alpha([s.refined for s in own], truths, boxes, template, mean_extent, known)
+    template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
+    placed = [learned_placement(s.refined, template, s.extent) for s in own]
+    offset = fit_offset(placed, truths, boxes, template, known)
+    return replace(template, placement={**template.placement, "offset": offset.tolist()})
 
 
 def _log_lengths(per_example: np.ndarray, parents: np.ndarray) -> np.ndarray:
