@@ -39,7 +39,7 @@ STRICT_THRESHOLD = 0.5
 # like those just under 0.15 and four of eleven bad ones scored 0.5 or more.
 GOOD_ERROR = 0.10
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
-# holds them out), not whether the rig is right.
+# holds them out), not whether the rig is right; so is the direction term of the cost per bone.
 FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
@@ -81,8 +81,27 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
     model = ConfidenceModel.from_dict(template.confidence)
-    values = features(parts, per_bone, joints, template, model.bone_log_sigma)
+    bones = max(len(reduced.joints) - 1, 1)
+    values = features(parts, posture_free_cost(embedding, graph, template) / bones, joints, template,
+                      model.bone_log_sigma)
     return model.probability(values), {k: round(float(v), 3) for k, v in parts.items()}
+
+
+def posture_free_cost(embedding: Embedding, graph: SphereGraph, template: Template) -> float:
+    """The embedding's penalty without its direction term: a T-posed character against a template whose arms
+    hang pays direction penalties for its rest pose, not for being wrongly rigged (the same reason bone
+    directions are no feature)."""
+    from .embed.penalties import WEIGHTS
+    reduced = template.reduced()
+    weight = (template.penalty_weights or WEIGHTS)["direction"]
+    spheres = np.asarray(embedding.spheres)
+    direction = 0.0
+    for k in range(1, len(reduced.joints)):
+        offset = graph.centers[spheres[k]] - graph.centers[spheres[reduced.parents[k]]]
+        vector = template.positions[reduced.joints[k]] - template.positions[reduced.joints[reduced.parents[k]]]
+        norm = float(np.linalg.norm(offset)) * float(np.linalg.norm(vector))
+        direction += 1.0 - (float(offset @ vector) / norm if norm > 0 else -1.0)
+    return max(float(embedding.cost) - weight * direction, 0.0)
 
 
 def features(parts: dict, per_bone: float, joints: np.ndarray, template: Template,

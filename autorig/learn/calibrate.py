@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..confidence import FEATURES, GOOD_ERROR, ConfidenceModel, features, rig_confidence
+from ..confidence import FEATURES, GOOD_ERROR, ConfidenceModel, features, posture_free_cost, rig_confidence
 
 L2 = 0.05
 
@@ -52,7 +52,7 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[di
     from ..placement import learned_placement
     joints = learned_placement(sample.refined, template, sample.extent, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
-    per_bone = sample.embedding.cost / max(len(template.reduced().joints) - 1, 1)
+    per_bone = posture_free_cost(sample.embedding, sample.graph, template) / max(len(template.reduced().joints) - 1, 1)
     row = features(parts, per_bone, joints, template, bone_log_sigma)
     worst = float(np.max(np.linalg.norm(joints[sample.scored] - sample.truth[sample.scored], axis=1)))
     return row, worst
