@@ -91,16 +91,11 @@ def posture_free_cost(embedding: Embedding, graph: SphereGraph, template: Templa
     """The embedding's penalty without its direction term: a T-posed character against a template whose arms
     hang pays direction penalties for its rest pose, not for being wrongly rigged (the same reason bone
     directions are no feature)."""
-    from .embed.penalties import WEIGHTS
+    from .embed.penalties import WEIGHTS, bone_vectors, direction_term
     reduced = template.reduced()
     weight = (template.penalty_weights or WEIGHTS)["direction"]
-    spheres = np.asarray(embedding.spheres)
-    direction = 0.0
-    for k in range(1, len(reduced.joints)):
-        offset = graph.centers[spheres[k]] - graph.centers[spheres[reduced.parents[k]]]
-        vector = template.positions[reduced.joints[k]] - template.positions[reduced.joints[reduced.parents[k]]]
-        norm = float(np.linalg.norm(offset)) * float(np.linalg.norm(vector))
-        direction += 1.0 - (float(offset @ vector) / norm if norm > 0 else -1.0)
+    direction = direction_term(graph.centers, [int(s) for s in embedding.spheres], reduced.parents,
+                               bone_vectors(template, reduced))
     return max(float(embedding.cost) - weight * direction, 0.0)
 
 

@@ -128,8 +128,8 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     order = [a for a in np.argsort(symmetry, kind="stable") if up == "auto" or a != AXES.index(up[-1])]
     left_axes = [a for a in order[:2] if symmetry[a] <= SYMMETRY_AMBIGUITY * symmetry[order[0]] + 1e-4]
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
-    # Greedy embeddings rank the frames (an upside-down frame costs many times more); the two best are
-    # then searched in full, which is what tells front from back.
+    # Greedy embeddings rank the frames (an upside-down frame costs many times more); the best few are then
+    # searched on a short budget, and the two best of those longer when front and back hang on them (below).
     problems, prior = {}, {}
     for u, f in candidates:
         change = prepared.frame_change(u, f)

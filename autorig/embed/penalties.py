@@ -185,12 +185,11 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     feet_cost = weights["feet"] * feet_height(graph)
 
     tpos = template.positions[reduced.joints]
-    vectors = np.zeros((K, 3))
+    vectors = bone_vectors(template, reduced)
     bone_cost, bone_row = [None] * K, [None] * K
     C, D = graph.centers, graph.distances
     for k in range(1, K):
         p = reduced.parents[k]
-        vectors[k] = tpos[k] - tpos[p]
         # Only the parent's candidates by this joint's: a limb's end has a few dozen candidates, so most
         # bones cost |S| x ends, not |S|^2.
         rows, cols = candidates[p], candidates[k]
@@ -245,6 +244,27 @@ def feet_height(graph: SphereGraph) -> np.ndarray:
     return (graph.centers[:, 1] - graph.centers[:, 1].min()) / FEET_UNIT
 
 
+def bone_vectors(template: Template, reduced: ReducedSkeleton) -> np.ndarray:
+    """[K, 3] the template's vector of each reduced bone, parent to joint (zero for the root)."""
+    tpos = template.positions[reduced.joints]
+    vectors = np.zeros((len(reduced.joints), 3))
+    for k in range(1, len(reduced.joints)):
+        vectors[k] = tpos[k] - tpos[reduced.parents[k]]
+    return vectors
+
+
+def direction_term(centers: np.ndarray, spheres, parents: np.ndarray, vectors: np.ndarray) -> float:
+    """The unweighted direction penalty of an embedding placing reduced joint k on ``spheres[k]``: the sum over
+    its bones of 1 - cos(angle) between the bone's straight line and the template's ``vectors`` [K, 3]."""
+    total = 0.0
+    for k in range(1, len(spheres)):
+        offset = centers[spheres[k]] - centers[spheres[parents[k]]]
+        direction = vectors[k] / np.linalg.norm(vectors[k])
+        norm = float(np.linalg.norm(offset))
+        total += 1.0 - (float(offset @ direction) / norm if norm > 0 else -1.0)
+    return total
+
+
 def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
     """{penalty: unweighted value} of the complete embedding placing reduced joint k on ``spheres[k]``:
     the cost the search gives it is the sum of ``problem.weights[p] * value`` (the learner's features)."""
@@ -260,14 +280,11 @@ def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
     has_children[parents[parents >= 0]] = True
     for k in np.flatnonzero(has_children):
         terms["height"] += float(height_offset(graph, problem.heights[k])[spheres[k]])
+    terms["direction"] = direction_term(C, spheres, parents, problem.vectors)
     used = np.zeros(len(graph.radii), dtype=bool)
     for k in range(1, len(spheres)):
         p, s, u = parents[k], spheres[k], spheres[parents[k]]
-        offset = C[s] - C[u]
-        direction = problem.vectors[k] / np.linalg.norm(problem.vectors[k])
-        norm = float(np.linalg.norm(offset))
         terms["length"] += float((np.log(max(D[u, s], 1e-9)) - np.log(reduced.lengths[k])) ** 2)
-        terms["direction"] += 1.0 - (float(offset @ direction) / norm if norm > 0 else -1.0)
         if problem.is_foot[k]:
             terms["feet"] += float(feet[s])
         if problem.fat[k]:
