@@ -553,12 +553,16 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
 
 
 def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """F [F, 3] with every connected piece whose signed volume is negative turned inside out, each triangle
-    listed from its smallest vertex index.
+    """F [F, 3] with every connected piece that faces inward turned inside out, each triangle listed from its
+    smallest vertex index.
 
-    Exports that face inward (negative volume) would make every winding number negative, and so the whole
-    mesh "outside"; pieces are judged one by one because a model made of parts can have some parts right
-    and others reversed.
+    Exports that face inward would make every winding number negative, and so the whole mesh "outside";
+    pieces are judged one by one because a model made of parts can have some parts right and others reversed.
+    A closed piece faces inward when its signed volume is negative. An open one (a game character's forearm,
+    a tube whose ends hide in a sleeve) has no volume that means anything: measured from the origin, the
+    open ends decide its sign. So an open piece is turned only when its own winding number says it is
+    inside out (``_open_piece_facing``), and one that cannot tell (a cape, a sheet) keeps the file's
+    orientation, which is what a renderer culling back faces shows.
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -567,16 +571,66 @@ def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     rows = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
     cols = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
     _, label = connected_components(coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)), directed=False)
+    piece = label[F[:, 0]]                                                               # [F]
     T = V[F]
     volume = np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])) / 6.0
-    piece_volume = np.bincount(label[F[:, 0]], weights=volume, minlength=label.max() + 1)
-    flip = piece_volume[label[F[:, 0]]] < 0
+    piece_volume = np.bincount(piece, weights=volume, minlength=label.max() + 1)
+    reversed_piece = piece_volume < 0
+    for p in np.unique(piece[_boundary_faces(F)]):
+        faces = np.flatnonzero(piece == p)
+        reversed_piece[p] = _open_piece_facing(V, F[faces]) < -OPEN_PIECE_CLEAR
+    flip = reversed_piece[piece]
     out = F.copy()
     out[flip] = out[flip][:, [0, 2, 1]]
     # Each triangle starts at its smallest vertex index (same orientation), so a mesh and its inward-facing
     # copy give the later stages, decimation included, the very same triangles.
     first = np.argmin(out, axis=1)
     return np.take_along_axis(out, (first[:, None] + np.arange(3)[None, :]) % 3, axis=1)
+
+
+OPEN_PIECE_SAMPLES = 200   # triangles of an open piece whose two sides are looked at
+OPEN_PIECE_CLEAR = 0.25    # facing score beyond which an open piece faces that way (a flat sheet scores 0 +- 0.1)
+
+
+def _boundary_faces(F: np.ndarray) -> np.ndarray:
+    """[F] bool: the triangle has an edge no other triangle shares (its piece is open there)."""
+    a = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
+    b = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
+    key = np.minimum(a, b) * (int(F.max()) + 1) + np.maximum(a, b)   # one integer per undirected edge
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
+    counts = np.diff(np.r_[starts, len(key)])
+    single = np.zeros(len(key), dtype=bool)
+    single[order[starts[counts == 1]]] = True
+    return single.reshape(3, -1).any(axis=0)
+
+
+def _open_piece_facing(V: np.ndarray, F: np.ndarray) -> float:
+    """How one open piece (vertices [V, 3], its triangles [P, 3]) faces: +1 outward, -1 inward, near 0 for a
+    sheet that has no inside.
+
+    The piece's own winding number jumps by one across its surface, from behind a triangle to in front of
+    it, whichever way it faces; what tells the way is the level it jumps from. Just behind and just in front
+    of an outward surface it is 1 and 0, of an inward one 0 and -1, of a sheet +-1/2: the area-weighted mean
+    of the two, over a spread of the piece's triangles, is the score.
+    """
+    import igl
+    T = V[F]
+    normal = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    twice_area = np.linalg.norm(normal, axis=1)
+    usable = np.flatnonzero(twice_area > 0)
+    if len(usable) == 0:
+        return 0.0
+    pick = usable[np.linspace(0, len(usable) - 1, min(OPEN_PIECE_SAMPLES, len(usable))).astype(np.int64)]
+    unit = normal[pick] / twice_area[pick, None]
+    step = 0.01 * np.sqrt(twice_area[pick])[:, None]   # well within the triangle's own reach
+    centre = T[pick].mean(axis=1)
+    points = np.vstack([centre - step * unit, centre + step * unit])
+    used, local = np.unique(F, return_inverse=True)    # the piece alone: the winding tree over its vertices
+    winding = igl.fast_winding_number(np.ascontiguousarray(V[used], dtype=np.float64),
+                                      np.ascontiguousarray(local.reshape(F.shape), dtype=np.int64), points)
+    return float(np.average(winding[:len(pick)] + winding[len(pick):], weights=twice_area[pick]))
 
 
 def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):

@@ -185,6 +185,54 @@ def test_working_copy_keeps_input_order():
     np.testing.assert_allclose(prepared.work_vertices, prepared.vertices, atol=1e-9)
 
 
+
+def open_tube(radius: float, length: float, centre, closed_end: bool) -> trimesh.Trimesh:
+    """A cylinder along y, facing outward, with its top end open (and its bottom too unless ``closed_end``)."""
+    tube = trimesh.creation.cylinder(radius=radius, height=length, sections=16,
+                                     transform=trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]))
+    normals = tube.face_normals
+    keep = ~(normals[:, 1] > 0.99) & ~((normals[:, 1] < -0.99) & (not closed_end))
+    piece = trimesh.Trimesh(tube.vertices, tube.faces[keep], process=False)
+    piece.remove_unreferenced_vertices()
+    return trimesh.Trimesh(piece.vertices + centre, piece.faces, process=False)
+
+
+def kept_orientation(prepared, faces: np.ndarray) -> np.ndarray:
+    """[K] for each input triangle of ``faces``, whether the working copy lists it the same way round."""
+    work = {tuple(np.roll(f, -int(np.argmin(f)))) for f in prepared.work_faces.tolist()}
+    out = []
+    for f in prepared.work_index[faces]:
+        same = tuple(np.roll(f, -int(np.argmin(f))))
+        flipped = tuple(np.roll(f[::-1], -int(np.argmin(f[::-1]))))
+        assert (same in work) != (flipped in work)
+        out.append(same in work)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("reverse", [False, True])
+def test_open_pieces_are_turned_outward_by_their_own_winding_number(reverse):
+    """Game characters are made of open parts: a hand whose wrist hides in a sleeve, a short sleeve open at
+    both ends. Measured from the feet, such a piece's signed volume can come out negative when it faces the
+    right way (the open end far from the origin); then the arm inside it was "outside" and the rig lost it."""
+    body = trimesh.creation.box(extents=[0.4, 1.0, 0.3], transform=trimesh.transformations.translation_matrix([0, 0.5, 0]))
+    hand = open_tube(0.05, 0.1, [0.4, 0.85, 0.0], closed_end=True)      # a cup open upwards, far from the feet
+    sleeve = open_tube(0.08, 0.05, [-0.4, 0.8, 0.0], closed_end=False)   # short and wide, open at both ends
+    sheet = trimesh.Trimesh([[0.3, 0.2, 0.3], [0.5, 0.2, 0.3], [0.4, 0.4, 0.3]], [[0, 1, 2]], process=False)
+    parts = [body, hand, sleeve, sheet]
+    V = np.vstack([p.vertices for p in parts])
+    starts = np.cumsum([0] + [len(p.vertices) for p in parts])
+    F = [p.faces + k for p, k in zip(parts, starts)]
+    if reverse:
+        F = [f if k in (0, 3) else f[:, ::-1] for k, f in enumerate(F)]
+    prepared = prepare(V, np.vstack(F), checked=False)
+    assert kept_orientation(prepared, F[0]).all()
+    assert kept_orientation(prepared, F[1]).all() != reverse
+    assert kept_orientation(prepared, F[2]).all() != reverse
+    assert kept_orientation(prepared, F[3]).all()                        # a sheet has no inside to go by
+    from autorig.distance import SurfaceQuery
+    inside_hand = prepared.to_canonical(np.array([[0.4, 0.83, 0.0]]))
+    assert SurfaceQuery(prepared.work_vertices, prepared.work_faces).winding(inside_hand)[0] > 0.5
+
 # ------------------------------------------------------------------------------------------------ file formats
 
 @pytest.mark.parametrize("ext", ["obj", "ply", "off", "glb"])
