@@ -19,9 +19,10 @@ Without a model, the confidence is their product. A template learned from exampl
 carries a *calibrated* model instead (``ConfidenceModel``): a logistic regression, fitted on rigs of the
 examples whose true error is known, of the parts above and of how far the rig's proportions are from the
 learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
-examples). Its output is the probability that the rig's worst joint is within ``GOOD_ERROR`` of the height,
-so below 0.5 means "probably wrong" and 0.5 or above "probably right". ``STRICT_THRESHOLD`` is where
-``--strict`` stops a pipeline.
+examples). Its output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height)
+rather than wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above
+"probably right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
+never lower it. ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
 from __future__ import annotations
 
@@ -38,6 +39,9 @@ STRICT_THRESHOLD = 0.5
 # right" that the confidence is judged by. At 0.15, with the learned placement, quadruped rigs 15-30 % off looked
 # like those just under 0.15 and four of eleven bad ones scored 0.5 or more.
 GOOD_ERROR = 0.10
+# ... and beyond which it counts as wrong. Rigs in between are the ones neither claim is about: the model is
+# fitted on right and wrong rigs only, so that its 0.5 line falls between the two rather than on GOOD_ERROR.
+BAD_ERROR = 0.20
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
 # holds them out), not whether the rig is right; so is the direction term of the cost per bone.
 FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions")

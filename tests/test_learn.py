@@ -153,6 +153,31 @@ def test_placement_offset_is_the_mean_convention_left_over():
     assert np.allclose(learned_placement(placed[1], moved, boxes[1])[solid], truths[1][solid])
 
 
+
+def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_between():
+    """Calibration rigs where the wrong ones happen to be the symmetric ones (as backwards rigs of a symmetric
+    character are): the model must not learn that asymmetry is a sign of a right rig. Rigs between the right
+    and wrong lines say nothing either way and must not move the fit."""
+    from autorig.confidence import BAD_ERROR, FEATURES, GOOD_ERROR
+    from autorig.learn.calibrate import fit
+    rng = np.random.default_rng(3)
+    def row(cost, symmetry):
+        return {**{f: 1.0 for f in FEATURES}, "cost_per_bone": cost, "symmetry": symmetry,
+                "proportions": float(rng.uniform(0.5, 1.5))}
+    right = [row(rng.uniform(0.05, 0.1), rng.uniform(0.90, 0.95)) for _ in range(12)]
+    wrong = [row(rng.uniform(0.2, 0.4), rng.uniform(0.97, 1.0)) for _ in range(12)]
+    rows, worst = right + wrong, [0.05] * 12 + [0.4] * 12
+    model = fit(rows, np.array(worst), np.zeros(3))
+    coef = dict(zip(FEATURES, model.coef))
+    assert coef["symmetry"] == 0.0 and coef["cost_per_bone"] < 0
+    assert model.probability(row(0.07, 0.93)) >= 0.5 > model.probability(row(0.3, 0.99))
+    # A perfectly symmetric right rig is no less trusted than an asymmetric one.
+    assert model.probability(row(0.07, 1.0)) >= model.probability(row(0.07, 0.9))
+    between = [row(0.3, 0.99) for _ in range(6)]       # would read as right rigs that look wrong
+    again = fit(rows + between, np.array(worst + [(GOOD_ERROR + BAD_ERROR) / 2] * 6), np.zeros(3))
+    assert np.allclose(again.coef, model.coef) and again.intercept == pytest.approx(model.intercept)
+    assert again.record["calibration_rigs"] == 30 and again.record["right_rigs"] == 12
+
 def test_penalty_terms_add_up_to_the_search_cost():
     sample = mannequin(pose="a", resolution=48)
     prepared = prepare(sample.vertices, sample.faces, "y", "z")

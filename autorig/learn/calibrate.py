@@ -4,7 +4,12 @@ The rigs are made as ``autorig.rig`` makes them, minus the skin weights, with te
 example (its fold of the examples left out of the proportions), in the example's own frame and facing the
 wrong way, so that the model sees rigs that are right and rigs that are wrong. Each is labelled by its worst
 joint error over the joints the example has; the model is a logistic regression of ``confidence.FEATURES``
-for P(worst error <= GOOD_ERROR), fitted with scipy (L-BFGS-B, a small L2 pull on the coefficients).
+for P(worst error <= GOOD_ERROR) against worst error > BAD_ERROR, fitted with scipy (L-BFGS-B, a small L2 pull
+on the coefficients) on the rigs that are one or the other.
+
+Each coefficient's sign is fixed by what its feature means (``SIGNS``): the calibration rigs are few (two per
+example), and unconstrained, the fit found that a *less* symmetric rig is more likely right (the backwards
+rigs it learned from are symmetric), and a lying-down rig 55 % off then scored 1.0.
 """
 from __future__ import annotations
 
@@ -12,9 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..confidence import FEATURES, GOOD_ERROR, ConfidenceModel, features, posture_free_cost, rig_confidence
+from ..confidence import (BAD_ERROR, FEATURES, GOOD_ERROR, ConfidenceModel, features, posture_free_cost,
+                          rig_confidence)
 
 L2 = 0.05
+# The way each feature may move the confidence: costs and deviations only lower it, the parts in (0, 1] (1: no
+# sign of trouble) only raise it.
+SIGNS = {"cost_per_bone": -1, "proportions": -1, "limbs": 1, "extra": 1, "inside": 1, "symmetry": 1, "search": 1}
 
 
 @dataclass
@@ -59,8 +68,14 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[di
 
 
 def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> ConfidenceModel:
-    """The logistic model of P(worst <= GOOD_ERROR) given the feature ``rows``."""
+    """The logistic model of P(worst <= GOOD_ERROR) against worst > BAD_ERROR given the feature ``rows``; rows
+    in between take no part in the fit (unless every row is in between)."""
     from scipy.optimize import minimize
+    worst = np.asarray(worst, dtype=float)
+    decided = (worst <= GOOD_ERROR) | (worst > BAD_ERROR)
+    if not decided.any():
+        decided[:] = True
+    all_rows, rows, worst = rows, [r for r, d in zip(rows, decided) if d], worst[decided]
     X = ConfidenceModel.design(rows)
     mean, scale = X.mean(axis=0), X.std(axis=0)
     scale[scale < 1e-6] = 1.0
@@ -81,7 +96,8 @@ def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> Conf
         return value, grad
 
     if 0 < y.sum() < len(y):
-        result = minimize(objective, np.zeros(len(FEATURES) + 1), jac=True, method="L-BFGS-B")
+        bounds = [(None, 0.0) if SIGNS[f] < 0 else (0.0, None) for f in FEATURES] + [(None, None)]
+        result = minimize(objective, np.zeros(len(FEATURES) + 1), jac=True, method="L-BFGS-B", bounds=bounds)
         coef, intercept = result.x[:-1], result.x[-1]
     else:
         # Every calibration rig right (or every one wrong): the features cannot tell, the rate can. The
@@ -90,8 +106,8 @@ def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> Conf
         coef, intercept = np.zeros(len(FEATURES)), float(np.log(rate / (1 - rate)))
     model = ConfidenceModel(coef, intercept, mean, scale, bone_log_sigma)
     predicted = np.array([model.probability(r) for r in rows])
-    model.record = {"calibration_rigs": int(len(rows)), "right_rigs": int(y.sum()),
-                    "misjudged": int(np.sum((predicted >= 0.5) != (y > 0)))}
+    model.record = {"calibration_rigs": int(len(all_rows)), "right_rigs": int(y.sum()),
+                    "wrong_rigs": int(len(y) - y.sum()), "misjudged": int(np.sum((predicted >= 0.5) != (y > 0)))}
     return model
 
 
