@@ -576,8 +576,10 @@ def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     volume = np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])) / 6.0
     piece_volume = np.bincount(piece, weights=volume, minlength=label.max() + 1)
     reversed_piece = piece_volume < 0
+    by_piece = np.argsort(piece, kind="stable")                                          # faces grouped by piece
+    starts = np.searchsorted(piece[by_piece], np.arange(label.max() + 2))
     for p in np.unique(piece[_boundary_faces(F)]):
-        faces = np.flatnonzero(piece == p)
+        faces = by_piece[starts[p]:starts[p + 1]]
         reversed_piece[p] = _open_piece_facing(V, F[faces]) < -OPEN_PIECE_CLEAR
     flip = reversed_piece[piece]
     out = F.copy()
