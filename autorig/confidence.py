@@ -85,22 +85,21 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
     model = ConfidenceModel.from_dict(template.confidence)
-    bones = max(len(reduced.joints) - 1, 1)
-    values = features(parts, posture_free_cost(embedding, graph, template) / bones, joints, template,
+    values = features(parts, posture_free_cost_per_bone(embedding, graph, template), joints, template,
                       model.bone_log_sigma)
     return model.probability(values), {k: round(float(v), 3) for k, v in parts.items()}
 
 
-def posture_free_cost(embedding: Embedding, graph: SphereGraph, template: Template) -> float:
-    """The embedding's penalty without its direction term: a T-posed character against a template whose arms
-    hang pays direction penalties for its rest pose, not for being wrongly rigged (the same reason bone
-    directions are no feature)."""
+def posture_free_cost_per_bone(embedding: Embedding, graph: SphereGraph, template: Template) -> float:
+    """The model's ``cost_per_bone``: the embedding's penalty without its direction term, per reduced bone. A
+    T-posed character against a template whose arms hang pays direction penalties for its rest pose, not for
+    being wrongly rigged (the same reason bone directions are no feature)."""
     from .embed.penalties import WEIGHTS, bone_vectors, direction_term
     reduced = template.reduced()
     weight = (template.penalty_weights or WEIGHTS)["direction"]
     direction = direction_term(graph.centers, [int(s) for s in embedding.spheres], reduced.parents,
                                bone_vectors(template, reduced))
-    return max(float(embedding.cost) - weight * direction, 0.0)
+    return max(float(embedding.cost) - weight * direction, 0.0) / max(len(reduced.joints) - 1, 1)
 
 
 def features(parts: dict, per_bone: float, joints: np.ndarray, template: Template,

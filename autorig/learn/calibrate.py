@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..confidence import (BAD_ERROR, FEATURES, GOOD_ERROR, ConfidenceModel, features, posture_free_cost,
-                          rig_confidence)
+from ..confidence import (BAD_ERROR, FEATURES, GOOD_ERROR, ConfidenceModel, features,
+                          posture_free_cost_per_bone, rig_confidence)
 
 L2 = 0.05
 # The way each feature may move the confidence: costs and deviations only lower it, the parts in (0, 1] (1: no
@@ -61,8 +61,8 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[di
     from ..placement import learned_placement
     joints = learned_placement(sample.refined, template, sample.extent, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
-    per_bone = posture_free_cost(sample.embedding, sample.graph, template) / max(len(template.reduced().joints) - 1, 1)
-    row = features(parts, per_bone, joints, template, bone_log_sigma)
+    row = features(parts, posture_free_cost_per_bone(sample.embedding, sample.graph, template), joints, template,
+                   bone_log_sigma)
     worst = float(np.max(np.linalg.norm(joints[sample.scored] - sample.truth[sample.scored], axis=1)))
     return row, worst
 
@@ -75,7 +75,7 @@ def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> Conf
     decided = (worst <= GOOD_ERROR) | (worst > BAD_ERROR)
     if not decided.any():
         decided[:] = True
-    all_rows, rows, worst = rows, [r for r, d in zip(rows, decided) if d], worst[decided]
+    rows, worst = [r for r, d in zip(rows, decided) if d], worst[decided]
     X = ConfidenceModel.design(rows)
     mean, scale = X.mean(axis=0), X.std(axis=0)
     scale[scale < 1e-6] = 1.0
@@ -106,7 +106,7 @@ def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> Conf
         coef, intercept = np.zeros(len(FEATURES)), float(np.log(rate / (1 - rate)))
     model = ConfidenceModel(coef, intercept, mean, scale, bone_log_sigma)
     predicted = np.array([model.probability(r) for r in rows])
-    model.record = {"calibration_rigs": int(len(all_rows)), "right_rigs": int(y.sum()),
+    model.record = {"calibration_rigs": int(len(decided)), "right_rigs": int(y.sum()),
                     "wrong_rigs": int(len(y) - y.sum()), "misjudged": int(np.sum((predicted >= 0.5) != (y > 0)))}
     return model
 
