@@ -22,7 +22,9 @@ from autorig.errors import TemplateError
 from autorig.exchange import write_rig
 from autorig.exchange.skeleton import Skeleton
 from autorig.learn.gamma import Constraint, _solve
-from autorig.learn.proportions import mirror_pairs
+from autorig.learn.augment import BONE_RANGE, END_RANGE, varied
+from autorig.learn.examples import read_examples
+from autorig.learn.proportions import mirror_pairs, skeleton_of_examples
 from autorig.mesh import prepare
 from autorig.pipeline import discretize
 from autorig.placement import fit_offset, learned_placement
@@ -103,6 +105,40 @@ def test_learned_from_glb_rigs_the_one_left_out(studio, learned_file):
     assert np.allclose(rig.weights.sum(axis=1), 1.0)
     expected = rig.joint("hips") + HELPER_OFFSET / np.mean([np.ptp(s.vertices[:, 1]) for s in samples[:3]]) * height
     assert np.linalg.norm(rig.joints[helper] - expected) / height < 0.05
+
+
+def test_reproportioned_examples_are_the_same_character_with_other_bone_lengths(studio, learned_file):
+    folder, _ = studio
+    examples = read_examples(sorted(folder.glob("*.glb")))
+    skeleton, template = skeleton_of_examples(examples), load_template(learned_file)
+    example = examples[0]
+    before = example.vertices.copy()
+    variant = varied(example, skeleton, template, 0)
+    assert np.array_equal(example.vertices, before)                      # the example itself is untouched
+    assert np.array_equal(variant.vertices, varied(example, skeleton, template, 0).vertices)
+    assert not np.allclose(variant.vertices, varied(example, skeleton, template, 1).vertices)
+    assert np.array_equal(variant.faces, example.faces) and np.array_equal(variant.weights, example.weights)
+
+    index = {n: example.key_of[n] for n in skeleton.source if n is not None}
+    ratio = {}
+    for j, name in enumerate(skeleton.source):
+        p = skeleton.parents[j]
+        if name is None or p < 0:
+            continue
+        k, q = index[name], index[skeleton.source[p]]
+        ratio[j] = (np.linalg.norm(variant.positions[k] - variant.positions[q])
+                    / np.linalg.norm(example.positions[k] - example.positions[q]))
+    values = np.array(list(ratio.values()))
+    assert np.all(values >= 1 / max(BONE_RANGE, END_RANGE) - 1e-9) and np.all(values <= max(BONE_RANGE, END_RANGE) + 1e-9)
+    assert np.max(np.abs(np.log(values))) > 0.05                          # the proportions did change
+    for left, right in template.symmetry:                                 # ... alike on both sides
+        if left in ratio:
+            assert ratio[left] == pytest.approx(ratio[right])
+    # The skeleton stays inside its mesh: the body followed its bones.
+    import igl
+    solid = [example.key_of[n] for j, n in enumerate(skeleton.source) if n is not None and not template.is_tip(j)]
+    winding = igl.fast_winding_number(variant.vertices, variant.faces, variant.positions[solid])
+    assert np.all(winding > 0.5)
 
 
 def test_template_file_round_trip_and_checks(learned_file):

@@ -178,13 +178,13 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
     sigma = np.concatenate([[0.0], log_lengths.std(axis=0)[1:]])
     scored = [np.array([skeleton.source[j] is not None and skeleton.source[j] in e.key_of
                         and not template.is_tip(j) for j in range(len(template.names))]) for e in examples]
+    # Each fold is rigged by a template whose proportions did not see it.
+    held_out_of = {fold: (replace(template, positions=symmetrized(per_example[folds != fold].mean(axis=0),
+                                                                  list(template.symmetry)))
+                          if "proportions" in parts else template) for fold in sorted(set(folds.tolist()))
+                   if (folds != fold).sum() >= 2}
     samples, sample_folds = [], []
-    for fold in sorted(set(folds.tolist())):
-        train = folds != fold
-        if train.sum() < 2:
-            continue
-        held_out = (replace(template, positions=symmetrized(per_example[train].mean(axis=0), list(template.symmetry)))
-                    if "proportions" in parts else template)
+    for fold, held_out in held_out_of.items():
         for s in settings:
             # The example's own frame and the one facing backwards: rigs that are right and rigs that are not.
             if folds[s.example] != fold or not (s.true_frame or s.frame == "back"):
@@ -208,12 +208,44 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
         others = [o for o, f in zip(samples, sample_folds) if f != fold]
         placed_by[fold] = (_placed(template, others, mean_extent) if placing and any(o.own_frame for o in others)
                            else template)
+    # Rigs of the examples re-proportioned (``augment``): right rigs of characters unlike the corpus's one
+    # skeleton, and the wrong rigs such characters get, so that the model learns what unusual proportions
+    # say about a rig rather than taking every one for a wrong rig.
+    varied = _varied_samples(template, skeleton, examples, per_example, scored, folds, held_out_of, say)
     rows = [sample_row(s, placed_by[fold], sigma) for s, fold in zip(samples, sample_folds)]
+    rows += [sample_row(s, placed_by[fold], sigma) for s, fold in varied if fold in placed_by]
     worst = np.array([w for _, w in rows])
     if len(rows) < 2:
         return template, {"skipped": "too few calibration rigs"}
     model = fit([r for r, _ in rows], worst, sigma)
     return replace(template, confidence=model.to_dict()), model.record
+
+
+def _varied_samples(template, skeleton, examples, per_example, scored, folds, held_out_of, say) -> list:
+    """[(calibration rig, fold)] of each example's ``augment.VARIANTS`` re-proportioned variants, in their own
+    frame, rigged by the template of the folds that did not see the example."""
+    from ..pipeline import discretize
+    from .augment import VARIANTS, varied
+    from .calibrate import rig_sample
+    out = []
+    for n, example in enumerate(examples):
+        fold = int(folds[n])
+        if fold not in held_out_of:
+            continue
+        for variant in range(VARIANTS):
+            changed = varied(example, skeleton, template, variant)
+            # Joints the variant cannot place (a tip without vertices) as the examples place them; they are
+            # never scored, but the placement needs every joint.
+            truth = fill_from_others(np.concatenate([per_example, [example_positions(changed, skeleton, None)]]),
+                                     skeleton.parents)[-1]
+            prepared = changed.prepared()
+            field, graph = discretize(prepared)
+            sample = rig_sample(field, graph, held_out_of[fold], truth, scored[n], True,
+                                np.ptp(prepared.work_vertices, axis=0))
+            if sample is not None:
+                out.append((sample, fold))
+    say(f"calibration: {len(out)} rigs of re-proportioned examples")
+    return out
 
 
 def _placed(template, samples, mean_extent: np.ndarray):

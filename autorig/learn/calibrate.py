@@ -1,13 +1,14 @@
 """The confidence model of a learned template, calibrated on rigs of the examples whose error is known.
 
 The rigs are made as ``autorig.rig`` makes them, minus the skin weights, with templates that did not see the
-example (its fold of the examples left out of the proportions), in the example's own frame and facing the
-wrong way, so that the model sees rigs that are right and rigs that are wrong. Each is labelled by its worst
+example (its fold of the examples left out of the proportions), in the example's own frame, facing the wrong
+way, and re-proportioned (``augment``), so that the model sees rigs that are right and rigs that are wrong, of
+characters built like the examples and unlike them. Each is labelled by its worst
 joint error over the joints the example has; the model is a logistic regression of ``confidence.FEATURES``
 for P(worst error <= GOOD_ERROR) against worst error > BAD_ERROR, fitted with scipy (L-BFGS-B, a small L2 pull
 on the coefficients) on the rigs that are one or the other.
 
-Each coefficient's sign is fixed by what its feature means (``SIGNS``): the calibration rigs are few (two per
+Each coefficient's sign is fixed by what its feature means (``SIGNS``): the calibration rigs are few (four per
 example), and unconstrained, the fit found that a *less* symmetric rig is more likely right (the backwards
 rigs it learned from are symmetric), and a lying-down rig 55 % off then scored 1.0.
 """
