@@ -12,7 +12,7 @@ depth          1.0     each joint at least as deep in the volume as where it sta
                        tips (crown, fingertips) no farther out than the surface
 inside         4.0     every bone's segment inside the mesh
 length         1.0     bone lengths as placed on the paths (squared relative change)
-direction      0.3     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
+direction      1.0     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
                        on the spine)
 symmetry       0.5     mirrored joints mirror images of each other about the body's mid-plane
 anchor         0.2     joints stay near where the embedding put them (squared, per 5% of the height)

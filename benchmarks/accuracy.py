@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -39,11 +40,13 @@ SHARED = [
 MANNEQUINS = [("t", "adult"), ("a", "adult"), ("down", "adult"), ("t", "child"), ("a", "heavy"), ("down", "tall")]
 
 
-def run_cli(mesh: Path, template: str, flags: list[str], out: Path) -> float:
+def run_cli(mesh: Path, template: str, flags: list[str], out: Path) -> tuple[float, float]:
+    """(seconds, confidence) of ``autorig MESH`` as a user runs it (the confidence from its summary line)."""
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "autorig.cli", str(mesh), "--template", template, *flags,
-                    "-o", str(out), "--quiet"], check=True)
-    return time.perf_counter() - start
+    done = subprocess.run([sys.executable, "-m", "autorig.cli", str(mesh), "--template", template, *flags,
+                           "-o", str(out)], check=True, capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    return seconds, float(re.search(r"confidence ([0-9.]+)", done.stdout).group(1))
 
 
 def side_checks(names, joints, truth, vertices, faces):
@@ -76,7 +79,7 @@ def shared_rows(shared: Path, out_dir: Path):
         if not gt_dir.is_dir():
             continue
         out = out_dir / f"{name}.glb"
-        seconds = run_cli(gt_dir / "mesh.obj", template, flags, out)
+        seconds, confidence = run_cli(gt_dir / "mesh.obj", template, flags, out)
         result = json.loads(subprocess.run([sys.executable, str(shared / "tools" / "score.py"), str(gt_dir),
                                             str(out), "--kind", template], check=True, capture_output=True,
                                            text=True).stdout)
@@ -87,7 +90,7 @@ def shared_rows(shared: Path, out_dir: Path):
         rows.append({"model": name, "template": template, "mean": 100 * result["joints"]["mean"],
                      "max": 100 * result["joints"]["max"], "top1": result["weights"]["top1_pct"],
                      "l1": result["weights"]["l1_mean"], "inside": inside, "swapped": swapped,
-                     "seconds": seconds, "reference": reference})
+                     "seconds": seconds, "confidence": confidence, "reference": reference})
     return rows
 
 
@@ -101,7 +104,7 @@ def mannequin_rows(out_dir: Path):
         mesh_path = out_dir / f"mannequin_{pose}_{proportions}.obj"
         trimesh.Trimesh(sample.vertices, sample.faces, process=False).export(mesh_path)
         out = out_dir / f"mannequin_{pose}_{proportions}.glb"
-        seconds = run_cli(mesh_path, "biped", [], out)
+        seconds, confidence = run_cli(mesh_path, "biped", [], out)
         rig = read_glb(out)
         height = float(np.ptp(sample.vertices[:, 1]))
         keys = [n for n in rig.names if not n.endswith("_end") and n in sample.joints]
@@ -110,7 +113,7 @@ def mannequin_rows(out_dir: Path):
         inside, swapped = side_checks(rig.names, rig.joints, sample.joints, sample.vertices, sample.faces)
         rows.append({"model": f"mannequin {pose}/{proportions}", "template": "biped", "mean": 100 * errors.mean(),
                      "max": 100 * errors.max(), "top1": None, "l1": None, "inside": inside, "swapped": swapped,
-                     "seconds": seconds, "reference": None})
+                     "seconds": seconds, "confidence": confidence, "reference": None})
     return rows
 
 
@@ -127,13 +130,13 @@ def main(argv=None) -> int:
         out_dir.mkdir(parents=True, exist_ok=True)
         rows = (shared_rows(args.shared, out_dir) if (args.shared / "data").is_dir() else []) + mannequin_rows(out_dir)
     print(f"{'model':24s} {'template':9s} {'joint err mean/max %':>21s} {'weights top1 %':>15s} {'L1':>6s} "
-          f"{'inside':>6s} {'L/R ok':>6s} {'time s':>7s}   Pinocchio mean/max/top1")
+          f"{'inside':>6s} {'L/R ok':>6s} {'conf':>5s} {'time s':>7s}   Pinocchio mean/max/top1")
     for r in rows:
         top1 = f"{r['top1']:.1f}" if r["top1"] is not None else "-"
         l1 = f"{r['l1']:.3f}" if r["l1"] is not None else "-"
         ref = "{:.1f} / {:.1f} / {:.0f}".format(*r["reference"]) if r["reference"] else ""
         print(f"{r['model']:24s} {r['template']:9s} {r['mean']:10.1f} / {r['max']:5.1f}    {top1:>15s} {l1:>6s} "
-              f"{str(r['inside']):>6s} {str(not r['swapped']):>6s} {r['seconds']:7.2f}   {ref}")
+              f"{str(r['inside']):>6s} {str(not r['swapped']):>6s} {r['confidence']:5.2f} {r['seconds']:7.2f}   {ref}")
     if cv is not None:
         for future in cv:
             print(future.result())

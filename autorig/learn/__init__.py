@@ -7,7 +7,8 @@
               -> discretize  each example's sphere graph, in its own frame and facing the wrong ways
               -> Γ           max-margin penalty weights (``gamma``)
               -> head/tail   how much orientation detection weighs the outline's head/tail cue (``head_tail``)
-              -> confidence  a calibrated model, on rigs of held-out folds (``calibrate``)
+              -> confidence  a calibrated model, on rigs of held-out folds, of the examples as they are and
+                             re-proportioned (``calibrate``, ``augment``)
 
 The result is a ``Template`` that ``--template`` takes once written with ``Template.to_dict``.
 """
@@ -211,9 +212,10 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
     # Rigs of the examples re-proportioned (``augment``): right rigs of characters unlike the corpus's one
     # skeleton, and the wrong rigs such characters get, so that the model learns what unusual proportions
     # say about a rig rather than taking every one for a wrong rig.
-    varied = _varied_samples(template, skeleton, examples, per_example, scored, folds, held_out_of, say)
+    varied = _varied_samples(template, skeleton, examples, per_example, scored, folds,
+                             {f: t for f, t in held_out_of.items() if f in placed_by}, say)
     rows = [sample_row(s, placed_by[fold], sigma) for s, fold in zip(samples, sample_folds)]
-    rows += [sample_row(s, placed_by[fold], sigma) for s, fold in varied if fold in placed_by]
+    rows += [sample_row(s, placed_by[fold], sigma) for s, fold in varied]
     worst = np.array([w for _, w in rows])
     if len(rows) < 2:
         return template, {"skipped": "too few calibration rigs"}
