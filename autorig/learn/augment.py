@@ -37,7 +37,8 @@ def varied(example: Example, skeleton: Skeleton, template: Template, variant: in
         bone[right], end[right] = bone[left], end[left]
     factor = np.ones(len(example.names))        # per example joint: its incoming bone's length factor
     size = np.zeros(len(example.names))         # per example joint: uniform scale of an end part (0: none)
-    feet_of = {int(skeleton.parents[f]) for f in template.feet}
+    # A foot (or the joint its tip hangs from) keeps its size: the character still stands on the same soles.
+    grounded = set(template.feet) | {int(skeleton.parents[f]) for f in template.feet}
     for j, name in enumerate(skeleton.source):
         if name is None or name not in example.key_of:
             continue
@@ -45,7 +46,7 @@ def varied(example: Example, skeleton: Skeleton, template: Template, variant: in
         if skeleton.parents[j] >= 0:
             factor[k] = bone[j]
         children = np.flatnonzero(skeleton.parents == j)
-        if all(skeleton.source[c] is None for c in children) and j not in feet_of and skeleton.parents[j] >= 0:
+        if all(template.is_tip(int(c)) for c in children) and j not in grounded and skeleton.parents[j] >= 0:
             for d in example.descendants(k):
                 size[d] = end[j]
     return _reproportioned(example, factor, size, variant)
