@@ -77,7 +77,7 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     else:
         mismatch = 0.0
     parts = {
-        "fit": 1.0 / (1.0 + (per_bone / FIT_SCALE) ** 4),
+        "fit": _fit_part(per_bone),
         "limbs": float(np.mean([s in ends for s in placed])),
         "extra": 1.0 / (1.0 + unused_ends / len(leaves)),
         "inside": inside,
@@ -99,8 +99,12 @@ def beyond_calibration(parts: dict, free_per_bone: float) -> float:
     limbless torso embedded with a cost per bone ten times theirs and limb ends on bumps scored 0.52 without
     this). The fit is taken without the direction term, like the model's cost (a T pose is no failure). On the
     corpus's cross-validated biped rigs it moves no confidence by more than 0.01."""
-    fit = 1.0 / (1.0 + (free_per_bone / FIT_SCALE) ** 4)
-    return float(fit * parts["limbs"] * parts["extra"] * parts["search"])
+    return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"])
+
+
+def _fit_part(per_bone: float) -> float:
+    """The fit part of an embedding penalty per reduced bone: 1/2 at ``FIT_SCALE``, falling fast beyond it."""
+    return 1.0 / (1.0 + (per_bone / FIT_SCALE) ** 4)
 
 
 def posture_free_cost_per_bone(embedding: Embedding, graph: SphereGraph, template: Template) -> float:

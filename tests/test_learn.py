@@ -128,8 +128,8 @@ def test_reproportioned_examples_are_the_same_character_with_other_bone_lengths(
         k, q = index[name], index[skeleton.source[p]]
         ratio[j] = (np.linalg.norm(variant.positions[k] - variant.positions[q])
                     / np.linalg.norm(example.positions[k] - example.positions[q]))
-    values = np.array(list(ratio.values()))
-    assert np.all(values >= 1 / max(BONE_RANGE, END_RANGE) - 1e-9) and np.all(values <= max(BONE_RANGE, END_RANGE) + 1e-9)
+    values, limit = np.array(list(ratio.values())), max(BONE_RANGE, END_RANGE)
+    assert np.all(values >= 1 / limit - 1e-9) and np.all(values <= limit + 1e-9)
     assert np.max(np.abs(np.log(values))) > 0.05                          # the proportions did change
     for left, right in template.symmetry:                                 # ... alike on both sides
         if left in ratio:
@@ -189,7 +189,6 @@ def test_placement_offset_is_the_mean_convention_left_over():
     assert np.allclose(learned_placement(placed[1], moved, boxes[1])[solid], truths[1][solid])
 
 
-
 def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_between():
     """Calibration rigs where the wrong ones happen to be the symmetric ones (as backwards rigs of a symmetric
     character are): the model must not learn that asymmetry is a sign of a right rig. Rigs between the right
@@ -213,6 +212,7 @@ def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_betw
     again = fit(rows + between, np.array(worst + [(GOOD_ERROR + BAD_ERROR) / 2] * 6), np.zeros(3))
     assert np.allclose(again.coef, model.coef) and again.intercept == pytest.approx(model.intercept)
     assert again.record["calibration_rigs"] == 30 and again.record["right_rigs"] == 12
+
 
 def test_penalty_terms_add_up_to_the_search_cost():
     sample = mannequin(pose="a", resolution=48)

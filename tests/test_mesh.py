@@ -185,7 +185,6 @@ def test_working_copy_keeps_input_order():
     np.testing.assert_allclose(prepared.work_vertices, prepared.vertices, atol=1e-9)
 
 
-
 def open_tube(radius: float, length: float, centre, closed_end: bool) -> trimesh.Trimesh:
     """A cylinder along y, facing outward, with its top end open (and its bottom too unless ``closed_end``)."""
     tube = trimesh.creation.cylinder(radius=radius, height=length, sections=16,

@@ -81,21 +81,12 @@ def _reproportioned(example: Example, factor: np.ndarray, size: np.ndarray, vari
         moved += w * (new[k] + (V - old[k]) @ transforms[k].T)
     # Weights that do not sum to one (a file's rounding) keep the rest of the vertex where it was.
     moved += (1.0 - example.weights.sum(axis=1, keepdims=True)) * V
-    out = replace(example, name=f"{example.name}~{variant}", vertices=moved, positions=new)
-    return out
+    return replace(example, name=f"{example.name}~{variant}", vertices=moved, positions=new)
 
 
 def _parents_first(parents: np.ndarray) -> list[int]:
-    order, seen = [], set()
-
-    def visit(k):
-        if k in seen:
-            return
-        if parents[k] >= 0:
-            visit(int(parents[k]))
-        seen.add(k)
-        order.append(k)
-
-    for k in range(len(parents)):
-        visit(k)
+    """The joints [J] in an order that lists every parent before its children (roots first)."""
+    order = [int(r) for r in np.flatnonzero(parents < 0)]
+    for k in order:                                   # grows as it goes: breadth first
+        order.extend(int(c) for c in np.flatnonzero(parents == k))
     return order
