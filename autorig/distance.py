@@ -174,6 +174,10 @@ class DistanceField:
         """This field seen from another frame: new = scale * (rotation @ old) + offset."""
         return MovedField(self, rotation, offset, scale)
 
+    def surface_distance(self, points: np.ndarray) -> np.ndarray:
+        """[N] exact unsigned distance of each point [N, 3] to the surface."""
+        return self.surface.distance(points)
+
 
 @dataclass
 class MovedField:
@@ -196,6 +200,10 @@ class MovedField:
     def moved(self, rotation: np.ndarray, offset: np.ndarray, scale: float) -> "MovedField":
         return MovedField(self.base, rotation @ self.rotation, scale * (rotation @ self.offset) + offset,
                           scale * self.scale)
+
+    def surface_distance(self, points: np.ndarray) -> np.ndarray:
+        old = ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
+        return self.base.surface_distance(old) * self.scale
 
 
 def _key(index: np.ndarray) -> np.ndarray:

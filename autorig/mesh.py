@@ -4,7 +4,8 @@ The canonical frame, shared by every stage (and by the templates, see ``template
 
 * +y is up, +z is the way the character faces, +x is the character's own left (left = up x front, so the
   frame is right-handed and the change of frame is a proper rotation);
-* the feet (the lowest point along up) are at y = 0 and the bounding box is centred on x and z;
+* the feet (the lowest point along up) are at y = 0 and the bounding box is centred on x and z (the rig then
+  moves x = 0 to the body's mid-plane, ``orient.mid_plane``, since a prop held to one side moves the box);
 * the height (the extent along up) is 1.
 
 ``load_mesh`` keeps the file's vertices exactly, in file order, because the rig's skin weights are written per
@@ -15,7 +16,7 @@ Every problem with the input raises ``InputError`` with one line naming the file
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -461,6 +462,13 @@ class PreparedMesh:
         moved.vertices = change.apply(self.vertices)
         moved.work_vertices = change.apply(self.work_vertices)
         return moved
+
+    def centred_at(self, x: float) -> "PreparedMesh":
+        """The same mesh and axes with the canonical origin moved along x to ``x`` (canonical units): the
+        frame centred on the body's mid-plane rather than its bounding box (``orient.mid_plane``)."""
+        shift = np.array([float(x), 0.0, 0.0])
+        return replace(self, vertices=self.vertices - shift, work_vertices=self.work_vertices - shift,
+                       offset=self.offset + self.rotation.T @ shift / self.scale)
 
     def frame_change(self, up: str, front: str) -> "FrameChange":
         """The map from this canonical frame to that of other axes, without moving any vertex."""

@@ -22,6 +22,9 @@ template has legs at both ends, and the embedding facing backwards often costs l
    embedding tells a biped's front from its back by about 0.1-0.4.
 
 Explicit ``--up`` / ``--front`` always win; only the axes given as ``auto`` are searched.
+
+Then x = 0 is moved to the body's mid-plane (``mid_plane``), given axes or not: a shield or a spear held to
+one side moves the bounding box's centre, across which the refinement would mirror the limbs.
 """
 from __future__ import annotations
 
@@ -39,6 +42,8 @@ FULL_SEARCHES = 3            # frames searched after the greedy ranking
 DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for the two best when they face opposite ways (below)
 FEET_BAND = 0.08  # the lowest part of the shape (fraction of its height) taken as where its feet are
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
+MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
+MID_PLANE_STEPS = 8    # grid steps on each side of the centre, before the search between the best's neighbours
 
 
 @dataclass
@@ -69,6 +74,36 @@ def mirror_errors(surface, samples: int = 1000) -> np.ndarray:
         mirrored[:, axis] = 2 * centre[axis] - mirrored[:, axis]
         out[axis] = float(np.mean(surface.distance(mirrored))) / diagonal
     return out
+
+
+def mid_plane(distance, vertices: np.ndarray, samples: int = 500) -> float:
+    """The x of the plane normal to x across which the surface is most nearly its own mirror image: the body's
+    mid-plane, which a prop held to one side (a shield, a spear) moves off the bounding box's centre. The
+    refinement mirrors left and right joints across x = 0 and the learned placement centres the template
+    there, so a rig of a character with a shield would otherwise lean towards the shield.
+
+    distance: unsigned distance [N] to the surface of points [N, 3] (canonical frame, x the left-right axis);
+    vertices [V, 3] the surface's vertices in that frame. The error of a plane is the median distance of the
+    mirrored vertices to the surface, so that a prop whose mirror image lands far from everything does not
+    pull the plane its way. The box's centre stays unless another plane does better."""
+    from scipy.optimize import minimize_scalar
+    points = vertices[np.unique(np.linspace(0, len(vertices) - 1, samples).astype(np.int64))]
+    lo, hi = float(vertices[:, 0].min()), float(vertices[:, 0].max())
+    centre, width = (lo + hi) / 2, hi - lo
+
+    def error(x: float) -> float:
+        mirrored = points.copy()
+        mirrored[:, 0] = 2 * x - points[:, 0]
+        return float(np.median(distance(mirrored)))
+
+    # A grid first: the error is not convex (a raised arm's mirror image can lie close to the other side's head).
+    grid = centre + width * np.linspace(-MID_PLANE_RANGE, MID_PLANE_RANGE, 2 * MID_PLANE_STEPS + 1)
+    errors = np.array([error(x) for x in grid])
+    best = int(np.argmin(errors))
+    found = minimize_scalar(error, bounds=(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]),
+                            method="bounded", options={"xatol": 1e-4 * width})
+    x, value = (float(found.x), float(found.fun)) if found.fun < errors[best] else (float(grid[best]), errors[best])
+    return centre if value >= errors[MID_PLANE_STEPS] else x
 
 
 def head_tail_cue(vertices: np.ndarray) -> float:
@@ -193,6 +228,15 @@ def _embedding_cost(problem, expansions: int) -> tuple[float, float]:
     except RigFailedError:
         return float("inf"), float("inf")
     return float(found.cost), float(found.bound)
+
+
+def centre_on_mid_plane(prepared, field, graph):
+    """(prepared, field, graph) moved along x so that x = 0 is the body's mid-plane (``mid_plane``)."""
+    x = mid_plane(field.surface_distance, prepared.work_vertices)
+    if abs(x) < 1e-9:
+        return prepared, field, graph
+    offset = np.array([-x, 0.0, 0.0])
+    return prepared.centred_at(x), field.moved(np.eye(3), offset, 1.0), graph.moved(graph.centers + offset, 1.0)
 
 
 def reorient(prepared, field, graph, orientation: Orientation):

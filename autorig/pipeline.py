@@ -6,7 +6,8 @@
                -> pack_spheres    maximal inscribed spheres, largest first
                -> sphere_graph    spheres joined through the interior
                -> orientation     which axis is up and which way it faces, unless the user said: the
-                                  discretization is carried into that frame (+y up, facing +z)
+                                  discretization is carried into that frame (+y up, facing +z), with
+                                  x = 0 on the body's mid-plane
                -> embed           A* over placements of the template's reduced skeleton
                -> place_on_paths  every template joint along the embedded paths
                -> refine          continuous optimisation of all joints, then the learned placement
@@ -57,7 +58,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .confidence import rig_confidence
     from .embed import embed
     from .mesh import prepare
-    from .orient import detect_orientation, reorient, working_axes
+    from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
     from .placement import learned_placement
     from .refine import place_on_paths, refine
     from .template import AUTO, Template, load_template
@@ -76,7 +77,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     field, graph = discretize(prepared, stage)
     with stage("orientation"):
         frame = detect_orientation(prepared, field, graph, template, options.up, options.front)
-        prepared, field, graph = reorient(prepared, field, graph, frame)
+        prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
     with stage("embedding"):
         embedding = embed(graph, template)
     with stage("refinement"):

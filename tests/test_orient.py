@@ -98,3 +98,28 @@ def test_head_tail_weight_is_learned_from_animals():
     assert learned.template.head_tail > 0.2
     # Without the cue the embedding alone leaves examples facing the wrong way or nearly so; with it, fewer.
     assert record["unclear_with"] < record["unclear_without"]
+
+
+def test_a_shield_held_to_one_side_does_not_move_the_rig():
+    # A prop on one side moves the bounding box's centre, not the body's mid-plane: the rig mirrors its left
+    # and right joints across the body's, and keeps its trunk on it.
+    import trimesh
+
+    from autorig.distance import SurfaceQuery
+    from autorig.orient import mid_plane
+    sample = mannequin(pose="a", resolution=64)
+    height = float(np.ptp(sample.vertices[:, 1]))
+    shield = trimesh.creation.box(extents=[0.04 * height, 0.3 * height, 0.25 * height])
+    shield.apply_translation([sample.vertices[:, 0].max() + 0.1 * height, 0.45 * height, 0.05 * height])
+    vertices = np.vstack([sample.vertices, shield.vertices])
+    faces = np.vstack([sample.faces, shield.faces + len(sample.vertices)])
+    assert (vertices[:, 0].min() + vertices[:, 0].max()) / 2 > 0.05 * height
+
+    assert abs(mid_plane(SurfaceQuery(vertices, faces).distance, vertices)) < 0.002 * height
+    rig = autorig.rig((vertices, faces), "biped", autorig.RigOptions(up="y", front="z"))
+    template = load_template("biped")
+    for i, j in template.symmetry:
+        left, right = rig.joint(template.names[i]), rig.joint(template.names[j])
+        assert abs(left[0] + right[0]) / 2 < 0.005 * height, (template.names[i], left, right)
+    for name in ("hips", "spine", "chest", "neck", "head"):
+        assert abs(rig.joint(name)[0]) < 0.01 * height, (name, rig.joint(name))

@@ -46,11 +46,16 @@ class Example:
     meta: dict = field(default_factory=dict)
 
     def prepared(self):
-        """The mesh in the template frame (``autorig.mesh.PreparedMesh``), made once."""
+        """The mesh in the template frame (``autorig.mesh.PreparedMesh``), centred on the body's mid-plane as
+        a rig centres it (``orient.centre_on_mid_plane``), made once."""
         if "_prepared" not in self.__dict__:
+            from ..distance import SurfaceQuery
             from ..mesh import check_mesh, prepare
+            from ..orient import mid_plane
             V, F = check_mesh(self.vertices, self.faces, self.name)
-            self.__dict__["_prepared"] = prepare(V, F, self.up, self.front, name=self.name, checked=True)
+            prepared = prepare(V, F, self.up, self.front, name=self.name, checked=True)
+            x = mid_plane(SurfaceQuery(*prepared.coarse()).distance, prepared.work_vertices)
+            self.__dict__["_prepared"] = prepared.centred_at(x) if abs(x) >= 1e-9 else prepared
         return self.__dict__["_prepared"]
 
     def canonical_joints(self) -> np.ndarray:
