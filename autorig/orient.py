@@ -4,7 +4,8 @@ Files come Y-up or Z-up, facing any axis. These decide:
 
 1. Bilateral symmetry. A character is its own mirror image across its mid-plane, whose normal is the
    left-right axis. Of the three coordinate axes, the one whose mirror image of the surface lies closest to
-   the surface itself is taken as left-right.
+   the surface itself is taken as left-right, and so is the one most nearly symmetric across its own best
+   plane (``mirror_plane``), since a spear held forward or a shield to one side moves the box's centre.
 2. The template. The other two axes leave eight frames (up is one of them, either sign; front is the other,
    either sign). The discretization, done once in the input's own axes, is carried into each candidate
    frame (a rotation and a scale) and the template embedded there. Feet low, head up, limbs the right way round:
@@ -83,27 +84,40 @@ def mid_plane(distance, vertices: np.ndarray, samples: int = 500) -> float:
     there, so a rig of a character with a shield would otherwise lean towards the shield.
 
     distance: unsigned distance [N] to the surface of points [N, 3] (canonical frame, x the left-right axis);
-    vertices [V, 3] the surface's vertices in that frame. The error of a plane is the median distance of the
-    mirrored vertices to the surface, so that a prop whose mirror image lands far from everything does not
-    pull the plane its way. The box's centre stays unless another plane does better."""
+    vertices [V, 3] the surface's vertices in that frame (``mirror_plane``)."""
+    return mirror_plane(distance, vertices, 0, samples)[0]
+
+
+def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = 500,
+                 exact: bool = True) -> tuple[float, float]:
+    """(position, error) of the plane normal to ``axis`` across which the surface is most nearly its own mirror
+    image. The error of a plane is the median distance of the mirrored vertices to the surface (in the
+    vertices' units), so that a prop whose mirror image lands far from everything does not pull the plane its
+    way; the box's centre stays unless another plane does better. ``exact``: the best of a grid refined by a
+    bounded search, else the grid's best.
+
+    distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices."""
     from scipy.optimize import minimize_scalar
     points = vertices[np.unique(np.linspace(0, len(vertices) - 1, samples).astype(np.int64))]
-    lo, hi = float(vertices[:, 0].min()), float(vertices[:, 0].max())
+    lo, hi = float(vertices[:, axis].min()), float(vertices[:, axis].max())
     centre, width = (lo + hi) / 2, hi - lo
 
     def error(x: float) -> float:
         mirrored = points.copy()
-        mirrored[:, 0] = 2 * x - points[:, 0]
+        mirrored[:, axis] = 2 * x - points[:, axis]
         return float(np.median(distance(mirrored)))
 
     # A grid first: the error is not convex (a raised arm's mirror image can lie close to the other side's head).
     grid = centre + width * np.linspace(-MID_PLANE_RANGE, MID_PLANE_RANGE, 2 * MID_PLANE_STEPS + 1)
     errors = np.array([error(x) for x in grid])
     best = int(np.argmin(errors))
-    found = minimize_scalar(error, bounds=(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]),
-                            method="bounded", options={"xatol": 1e-4 * width})
-    x, value = (float(found.x), float(found.fun)) if found.fun < errors[best] else (float(grid[best]), errors[best])
-    return centre if value >= errors[MID_PLANE_STEPS] else x
+    x, value = float(grid[best]), float(errors[best])
+    if exact:
+        found = minimize_scalar(error, bounds=(grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]),
+                                method="bounded", options={"xatol": 1e-4 * width})
+        if found.fun < value:
+            x, value = float(found.x), float(found.fun)
+    return (centre, float(errors[MID_PLANE_STEPS])) if value >= errors[MID_PLANE_STEPS] else (x, value)
 
 
 def head_tail_cue(vertices: np.ndarray) -> float:
@@ -162,6 +176,11 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     # tried as left-right. The user's up is never left-right (trust a character lying on its side).
     order = [a for a in np.argsort(symmetry, kind="stable") if up == "auto" or a != AXES.index(up[-1])]
     left_axes = [a for a in order[:2] if symmetry[a] <= SYMMETRY_AMBIGUITY * symmetry[order[0]] + 1e-4]
+    # A spear held forward or a shield to one side moves the box's centre, across which ``mirror_errors``
+    # mirrors: the axis most nearly symmetric across its own best plane is tried too.
+    planes = [mirror_plane(field.surface_distance, prepared.work_vertices, a, exact=False)[1] for a in range(3)]
+    best_plane = next(a for a in np.argsort(planes, kind="stable") if up == "auto" or a != AXES.index(up[-1]))
+    left_axes += [best_plane] if best_plane not in left_axes else []
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
     # Greedy embeddings rank the frames (an upside-down frame costs many times more); the best few are then
     # searched on a short budget, and the two best of those longer when front and back hang on them (below).

@@ -123,3 +123,28 @@ def test_a_shield_held_to_one_side_does_not_move_the_rig():
         assert abs(left[0] + right[0]) / 2 < 0.005 * height, (template.names[i], left, right)
     for name in ("hips", "spine", "chest", "neck", "head"):
         assert abs(rig.joint(name)[0]) < 0.01 * height, (name, rig.joint(name))
+
+
+SPEAR_TURNS = TURNS + [("as given", lambda v: v, ("y", "z"), lambda v: v)]
+
+
+@pytest.mark.parametrize("name, turn, axes, back", SPEAR_TURNS, ids=[t[0] for t in SPEAR_TURNS])
+def test_a_spear_and_a_shield_do_not_hide_which_way_is_left(name, turn, axes, back):
+    # A spear held forward and a shield to one side move the bounding box's centre so far that the surface
+    # is more nearly its own mirror image across the box's horizontal mid-plane than across its upright one.
+    import trimesh
+    sample = mannequin(pose="a", resolution=64)
+    height = float(np.ptp(sample.vertices[:, 1]))
+    spear = trimesh.creation.box(extents=[0.02 * height, 0.02 * height, 1.2 * height])
+    spear.apply_translation([sample.vertices[:, 0].min() - 0.03 * height, 0.5 * height, 0.3 * height])
+    shield = trimesh.creation.box(extents=[0.04 * height, 0.35 * height, 0.3 * height])
+    shield.apply_translation([sample.vertices[:, 0].max() + 0.2 * height, 0.45 * height, 0.1 * height])
+    parts = [(sample.vertices, sample.faces), (spear.vertices, spear.faces), (shield.vertices, shield.faces)]
+    first = np.cumsum([0] + [len(v) for v, _ in parts])
+    vertices = np.vstack([v for v, _ in parts])
+    faces = np.vstack([f + first[k] for k, (_, f) in enumerate(parts)])
+
+    turned = autorig.rig((turn(vertices), faces), "biped")
+    assert (turned.info["up"], turned.info["front"]) == axes
+    given = autorig.rig((vertices, faces), "biped", autorig.RigOptions(up="y", front="z"))
+    assert np.max(np.linalg.norm(back(turned.joints) - given.joints, axis=1)) < 0.03 * height
