@@ -7,14 +7,15 @@ to trust that over the refined position, joint by joint:
 
     stretch    per-axis scale [3] of the mesh's bounding box in the template frame against the examples'
                mean box (``extent``), clipped to [1 / MAX_STRETCH, MAX_STRETCH]; the frame is centred on the
-               box in x and z and has the feet at y = 0, so a scale about the origin stretches the template
-               over the body (a long-bodied animal, a wide one)
+               body's mid-plane in x (``orient.mid_plane``) and on the box in z and has the feet at y = 0, so a
+               scale about the origin stretches the template over the body (a long-bodied animal, a wide one)
     placed_j = refined_j + alpha_j * (stretch * template_j - refined_j) + box * offset_j
 
 ``alpha`` [J] is fitted on rigs of the examples by least squares and clipped to [0, 1] (0: keep the refined
 joint; 1: take the template's); leaves keep alpha 0, so the ends the embedding found stay where they are.
 ``offset`` [J, 3] (optional) is what is still left between those rigs and their truths, on average, as a
-fraction of each mesh's bounding box ``box`` [3] (template frame): where the embedding puts a joint and where
+fraction of each mesh's bounding box ``box`` [3] (template frame), clipped as the stretch is (a spear held
+forward makes a soldier's box five times as deep as his body): where the embedding puts a joint and where
 the examples' artists put it differ by a convention (a quadruped's root at the rump, not in the belly's
 thickest sphere), and a convention carries over to characters the examples do not include. Tips keep 0.
 """
@@ -33,11 +34,18 @@ def leaves(template: Template) -> np.ndarray:
     return np.array([j for j, kids in enumerate(template.children) if not kids], dtype=np.int64)
 
 
+def body_box(extent, mean_extent) -> np.ndarray:
+    """[3] the mesh's box ``extent`` [3] clipped to [1 / MAX_STRETCH, MAX_STRETCH] times the examples'
+    ``mean_extent`` [3]: what the stretch and the offsets scale by, so that a spear held out does not
+    multiply them."""
+    mean = np.asarray(mean_extent, float)
+    return np.clip(np.asarray(extent, float), mean / MAX_STRETCH, mean * MAX_STRETCH)
+
+
 def stretched_template(extent: np.ndarray, template: Template, mean_extent) -> np.ndarray:
     """[J, 3] the template's joints scaled per axis by the mesh's box ``extent`` [3] (template frame) against
     the examples' ``mean_extent`` [3]."""
-    scale = np.clip(np.asarray(extent, float) / np.asarray(mean_extent, float), 1 / MAX_STRETCH, MAX_STRETCH)
-    return template.positions * scale
+    return template.positions * (body_box(extent, mean_extent) / np.asarray(mean_extent, float))
 
 
 def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray, field=None) -> np.ndarray:
@@ -50,7 +58,8 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
     alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
     placed = joints + alpha * (stretched_template(extent, template, template.placement["extent"]) - joints)
     if template.placement.get("offset") is not None:
-        placed = placed + np.asarray(template.placement["offset"], dtype=float) * np.asarray(extent, float)
+        offset = np.asarray(template.placement["offset"], dtype=float)
+        placed = placed + offset * body_box(extent, template.placement["extent"])
     if field is not None:
         solid = np.array([not template.is_tip(j) for j in range(len(template.names))])
         depth = field.depth(placed)
@@ -80,15 +89,16 @@ def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list
 
 
 def fit_offset(placed: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
-               weights: list[np.ndarray] | None = None) -> np.ndarray:
+               mean_extent, weights: list[np.ndarray] | None = None) -> np.ndarray:
     """[J, 3] the mean of what separates the ``placed`` rigs [N][J, 3] (after alpha) from their ``truths``
-    [N][J, 3], each as a fraction of its mesh's box ``extents`` [N][3], weighted by ``weights`` [N][J] (0 where
-    an example lacks the joint); 0 for tips and for joints no example has."""
+    [N][J, 3], each as a fraction of its mesh's box ``extents`` [N][3] clipped about the examples'
+    ``mean_extent`` [3] (``body_box``), weighted by ``weights`` [N][J] (0 where an example lacks the joint); 0
+    for tips and for joints no example has."""
     J = len(template.names)
     total, count = np.zeros((J, 3)), np.zeros(J)
     for n, (P, T) in enumerate(zip(placed, truths)):
         w = np.ones(J) if weights is None else np.asarray(weights[n], float)
-        total += w[:, None] * (T - P) / np.asarray(extents[n], float)
+        total += w[:, None] * (T - P) / body_box(extents[n], mean_extent)
         count += w
     offset = np.where(count[:, None] > 0, total / np.maximum(count, 1e-12)[:, None], 0.0)
     offset[[j for j in range(J) if template.is_tip(j)]] = 0.0

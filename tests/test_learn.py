@@ -27,7 +27,7 @@ from autorig.learn.examples import read_examples
 from autorig.learn.proportions import mirror_pairs, skeleton_of_examples
 from autorig.mesh import prepare
 from autorig.pipeline import discretize
-from autorig.placement import fit_offset, learned_placement
+from autorig.placement import MAX_STRETCH, fit_offset, learned_placement
 from autorig.samples import mannequin
 from autorig.template import load_template, template_from_dict
 
@@ -169,11 +169,13 @@ def test_template_file_round_trip_and_checks(learned_file):
 
 def test_placement_offset_is_the_mean_convention_left_over():
     """Rigs that all sit a tenth of their box behind their truth get that tenth back, box by box; tips and
-    joints no example has keep 0."""
+    joints no example has keep 0. A box deeper than the stretch allows (a spear held forward) counts only as
+    deep as it allows."""
     template = load_template(ROOT / "templates" / "handset" / "quadruped.json")
     J = len(template.names)
     rng = np.random.default_rng(7)
-    boxes = [np.array([0.4, 1.0, 1.6]), np.array([0.3, 1.0, 0.8])]
+    boxes = [np.array([0.4, 1.0, 1.4]), np.array([0.3, 1.0, 1.0])]
+    mean_box = np.mean(boxes, axis=0)
     truths = [rng.normal(size=(J, 3)) for _ in boxes]
     shift = np.zeros((J, 3))
     shift[:, 2] = -0.1
@@ -181,12 +183,16 @@ def test_placement_offset_is_the_mean_convention_left_over():
     known = [np.ones(J), np.ones(J)]
     hips, tail = template.names.index("hips"), template.names.index("tail_end")
     known[0][hips] = known[1][hips] = 0.0
-    offset = fit_offset(placed, truths, boxes, template, known)
+    offset = fit_offset(placed, truths, boxes, template, mean_box, known)
     solid = [j for j in range(J) if not template.is_tip(j) and j != hips]
     assert np.allclose(offset[solid], -shift[solid])
     assert np.all(offset[tail] == 0) and np.all(offset[hips] == 0)
-    moved = replace(template, placement={"alpha": [0.0] * J, "extent": [0.4, 1.0, 1.6], "offset": offset.tolist()})
+    moved = replace(template, placement={"alpha": [0.0] * J, "extent": mean_box.tolist(), "offset": offset.tolist()})
     assert np.allclose(learned_placement(placed[1], moved, boxes[1])[solid], truths[1][solid])
+    deepest = mean_box * [1.0, 1.0, MAX_STRETCH]
+    speared = learned_placement(placed[1], moved, mean_box * [1.0, 1.0, 5.0])
+    assert np.allclose(speared, learned_placement(placed[1], moved, deepest))
+    assert not np.allclose(speared, learned_placement(placed[1], moved, mean_box))
 
 
 def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_between():

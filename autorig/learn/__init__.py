@@ -259,7 +259,7 @@ def _placed(template, samples, mean_extent: np.ndarray):
     alpha = fit_alpha([s.refined for s in own], truths, boxes, template, mean_extent, known)
     template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
     placed = [learned_placement(s.refined, template, s.extent) for s in own]
-    offset = fit_offset(placed, truths, boxes, template, known)
+    offset = fit_offset(placed, truths, boxes, template, mean_extent, known)
     return replace(template, placement={**template.placement, "offset": offset.tolist()})
 
 
