@@ -45,6 +45,9 @@ FEET_BAND = 0.08  # the lowest part of the shape (fraction of its height) taken 
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
 MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
 MID_PLANE_STEPS = 8    # grid steps on each side of the centre, before the search between the best's neighbours
+MID_PLANE_SAMPLES = 300  # vertices mirrored (each plane tried costs an exact distance query per vertex)
+AXIS_PLANE_STEPS, AXIS_PLANE_SAMPLES = 4, 200  # the same, coarser, for telling the left-right axis: a
+# coarser grid alone misses a mid-plane 5 % of the width off the box's centre (a shield's), the search finds it
 
 
 @dataclass
@@ -77,7 +80,7 @@ def mirror_errors(surface, samples: int = 1000) -> np.ndarray:
     return out
 
 
-def mid_plane(distance, vertices: np.ndarray, samples: int = 500) -> float:
+def mid_plane(distance, vertices: np.ndarray, samples: int = MID_PLANE_SAMPLES) -> float:
     """The x of the plane normal to x across which the surface is most nearly its own mirror image: the body's
     mid-plane, which a prop held to one side (a shield, a spear) moves off the bounding box's centre. The
     refinement mirrors left and right joints across x = 0 and the learned placement centres the template
@@ -88,13 +91,13 @@ def mid_plane(distance, vertices: np.ndarray, samples: int = 500) -> float:
     return mirror_plane(distance, vertices, 0, samples)[0]
 
 
-def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = 500,
-                 exact: bool = True) -> tuple[float, float]:
+def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_PLANE_SAMPLES,
+                 steps: int = MID_PLANE_STEPS, exact: bool = True) -> tuple[float, float]:
     """(position, error) of the plane normal to ``axis`` across which the surface is most nearly its own mirror
     image. The error of a plane is the median distance of the mirrored vertices to the surface (in the
     vertices' units), so that a prop whose mirror image lands far from everything does not pull the plane its
-    way; the box's centre stays unless another plane does better. ``exact``: the best of a grid refined by a
-    bounded search, else the grid's best.
+    way; the box's centre stays unless another plane does better. The planes tried: a grid of ``steps`` on
+    each side of the centre, then (``exact``) a bounded search between the grid's best one's neighbours.
 
     distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices."""
     from scipy.optimize import minimize_scalar
@@ -108,7 +111,7 @@ def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = 500,
         return float(np.median(distance(mirrored)))
 
     # A grid first: the error is not convex (a raised arm's mirror image can lie close to the other side's head).
-    grid = centre + width * np.linspace(-MID_PLANE_RANGE, MID_PLANE_RANGE, 2 * MID_PLANE_STEPS + 1)
+    grid = centre + width * np.linspace(-MID_PLANE_RANGE, MID_PLANE_RANGE, 2 * steps + 1)
     errors = np.array([error(x) for x in grid])
     best = int(np.argmin(errors))
     x, value = float(grid[best]), float(errors[best])
@@ -117,7 +120,7 @@ def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = 500,
                                 method="bounded", options={"xatol": 1e-4 * width})
         if found.fun < value:
             x, value = float(found.x), float(found.fun)
-    return (centre, float(errors[MID_PLANE_STEPS])) if value >= errors[MID_PLANE_STEPS] else (x, value)
+    return (centre, float(errors[steps])) if value >= errors[steps] else (x, value)
 
 
 def head_tail_cue(vertices: np.ndarray) -> float:
@@ -178,7 +181,8 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     left_axes = [a for a in order[:2] if symmetry[a] <= SYMMETRY_AMBIGUITY * symmetry[order[0]] + 1e-4]
     # A spear held forward or a shield to one side moves the box's centre, across which ``mirror_errors``
     # mirrors: the axis most nearly symmetric across its own best plane is tried too.
-    planes = [mirror_plane(field.surface_distance, prepared.work_vertices, a, exact=False)[1] for a in range(3)]
+    planes = [mirror_plane(field.surface_distance, prepared.work_vertices, a, AXIS_PLANE_SAMPLES,
+                           AXIS_PLANE_STEPS)[1] for a in range(3)]
     best_plane = next(a for a in np.argsort(planes, kind="stable") if up == "auto" or a != AXES.index(up[-1]))
     left_axes += [best_plane] if best_plane not in left_axes else []
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
