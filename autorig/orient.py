@@ -46,8 +46,9 @@ TIP_BAND = 0.05   # the part of the shape's length at each end whose height is i
 MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
 MID_PLANE_STEPS = 8    # grid steps on each side of the centre, before the search between the best's neighbours
 MID_PLANE_SAMPLES = 300  # vertices mirrored (each plane tried costs an exact distance query per vertex)
-AXIS_PLANE_STEPS, AXIS_PLANE_SAMPLES = 4, 200  # the same, coarser, for telling the left-right axis: a
-# coarser grid alone misses a mid-plane 5 % of the width off the box's centre (a shield's), the search finds it
+MID_PLANE_MIN_SHIFT = 1e-3  # heights: a mid-plane closer to the box's centre moves no joint that matters
+AXIS_PLANE_STEPS = 4      # the same, coarser, for telling the left-right axis (the bounded search still runs:
+AXIS_PLANE_SAMPLES = 200  # the grid alone misses a shield's mid-plane, 5 % of the width off the box's centre)
 
 
 @dataclass
@@ -87,8 +88,11 @@ def mid_plane(distance, vertices: np.ndarray, samples: int = MID_PLANE_SAMPLES) 
     there, so a rig of a character with a shield would otherwise lean towards the shield.
 
     distance: unsigned distance [N] to the surface of points [N, 3] (canonical frame, x the left-right axis);
-    vertices [V, 3] the surface's vertices in that frame (``mirror_plane``)."""
-    return mirror_plane(distance, vertices, 0, samples)[0]
+    vertices [V, 3] the surface's vertices in that frame (``mirror_plane``). A plane within
+    ``MID_PLANE_MIN_SHIFT`` of the box's centre gives the centre: then nothing needs moving."""
+    centre = (float(vertices[:, 0].min()) + float(vertices[:, 0].max())) / 2
+    x = mirror_plane(distance, vertices, 0, samples)[0]
+    return x if abs(x - centre) >= MID_PLANE_MIN_SHIFT else centre
 
 
 def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_PLANE_SAMPLES,
@@ -110,7 +114,7 @@ def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_P
         mirrored[:, axis] = 2 * x - points[:, axis]
         return float(np.median(distance(mirrored)))
 
-    # A grid first: the error is not convex (a raised arm's mirror image can lie close to the other side's head).
+    # A grid first: the error can have several local minima, and the bounded search needs a bracket.
     grid = centre + width * np.linspace(-MID_PLANE_RANGE, MID_PLANE_RANGE, 2 * steps + 1)
     errors = np.array([error(x) for x in grid])
     best = int(np.argmin(errors))
