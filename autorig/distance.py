@@ -193,8 +193,7 @@ class MovedField:
         return self.depth_and_gradient(points)[0]
 
     def depth_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        old = ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
-        depth, gradient = self.base.depth_and_gradient(old)
+        depth, gradient = self.base.depth_and_gradient(self._in_base(points))
         return depth * self.scale, gradient @ self.rotation.T
 
     def moved(self, rotation: np.ndarray, offset: np.ndarray, scale: float) -> "MovedField":
@@ -202,8 +201,11 @@ class MovedField:
                           scale * self.scale)
 
     def surface_distance(self, points: np.ndarray) -> np.ndarray:
-        old = ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
-        return self.base.surface_distance(old) * self.scale
+        return self.base.surface_distance(self._in_base(points)) * self.scale
+
+    def _in_base(self, points: np.ndarray) -> np.ndarray:
+        """Points [N, 3] of this frame in the frame the field was built in."""
+        return ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
 
 
 def _key(index: np.ndarray) -> np.ndarray:

@@ -465,7 +465,10 @@ class PreparedMesh:
 
     def centred_at(self, x: float) -> "PreparedMesh":
         """The same mesh and axes with the canonical origin moved along x to ``x`` (canonical units): the
-        frame centred on the body's mid-plane rather than its bounding box (``orient.mid_plane``)."""
+        frame centred on the body's mid-plane rather than its bounding box (``orient.mid_plane``). Itself
+        for x = 0."""
+        if x == 0.0:
+            return self
         shift = np.array([float(x), 0.0, 0.0])
         return replace(self, vertices=self.vertices - shift, work_vertices=self.work_vertices - shift,
                        offset=self.offset + self.rotation.T @ shift / self.scale)

@@ -89,10 +89,11 @@ def mid_plane(distance, vertices: np.ndarray, samples: int = MID_PLANE_SAMPLES) 
 
     distance: unsigned distance [N] to the surface of points [N, 3] (canonical frame, x the left-right axis);
     vertices [V, 3] the surface's vertices in that frame (``mirror_plane``). A plane within
-    ``MID_PLANE_MIN_SHIFT`` of the box's centre gives the centre: then nothing needs moving."""
+    ``MID_PLANE_MIN_SHIFT`` of the box's centre gives exactly 0, the canonical frame's own x = 0: then nothing
+    needs moving."""
     centre = (float(vertices[:, 0].min()) + float(vertices[:, 0].max())) / 2
     x = mirror_plane(distance, vertices, 0, samples)[0]
-    return x if abs(x - centre) >= MID_PLANE_MIN_SHIFT else centre
+    return x if abs(x - centre) >= MID_PLANE_MIN_SHIFT else 0.0
 
 
 def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_PLANE_SAMPLES,
@@ -260,7 +261,7 @@ def _embedding_cost(problem, expansions: int) -> tuple[float, float]:
 def centre_on_mid_plane(prepared, field, graph):
     """(prepared, field, graph) moved along x so that x = 0 is the body's mid-plane (``mid_plane``)."""
     x = mid_plane(field.surface_distance, prepared.work_vertices)
-    if abs(x) < 1e-9:
+    if x == 0.0:
         return prepared, field, graph
     offset = np.array([-x, 0.0, 0.0])
     return prepared.centred_at(x), field.moved(np.eye(3), offset, 1.0), graph.moved(graph.centers + offset, 1.0)

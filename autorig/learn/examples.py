@@ -55,7 +55,7 @@ class Example:
             V, F = check_mesh(self.vertices, self.faces, self.name)
             prepared = prepare(V, F, self.up, self.front, name=self.name, checked=True)
             x = mid_plane(SurfaceQuery(*prepared.coarse()).distance, prepared.work_vertices)
-            self.__dict__["_prepared"] = prepared.centred_at(x) if abs(x) >= 1e-9 else prepared
+            self.__dict__["_prepared"] = prepared.centred_at(x)
         return self.__dict__["_prepared"]
 
     def canonical_joints(self) -> np.ndarray:
