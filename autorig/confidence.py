@@ -17,9 +17,10 @@ search     0.8 when the A* search ran out of budget and took its greedy embeddin
 
 Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
 carries a *calibrated* model instead (``ConfidenceModel``): a logistic regression, fitted on rigs of the
-examples whose true error is known, of the parts above and of how far the rig's proportions are from the
+examples whose true error is known, of the parts above, of how far the rig's proportions are from the
 learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
-examples). Its output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height)
+examples), and of whether its feet point the way the template's do (``facing``: a rig made facing backwards,
+left and right swapped, has the proportions and costs of a right one; its toes point the wrong way). Its output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height)
 rather than wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above
 "probably right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
 never lower it. The model's probability is then multiplied by the fit, limbs, extra and search parts
@@ -46,7 +47,7 @@ GOOD_ERROR = 0.10
 BAD_ERROR = 0.20
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
 # holds them out), not whether the rig is right; so is the direction term of the cost per bone.
-FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions")
+FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
 FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit part is 1/2
@@ -133,7 +134,25 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
     z = np.log(rig_length / ref_length) / np.maximum(bone_log_sigma[child], 0.05)
     return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],
             "inside": parts["inside"], "symmetry": parts["symmetry"], "search": parts["search"],
-            "proportions": float(np.mean(z ** 2))}
+            "proportions": float(np.mean(z ** 2)), "facing": feet_facing(joints, template)}
+
+
+def feet_facing(joints: np.ndarray, template: Template) -> float:
+    """In (0, 1]: how nearly the rig's feet (``joints`` [J, 3], canonical frame) point the way the template's
+    do, seen from above: each foot's last bone but its tip's (ankle to toe), its horizontal part against the
+    template's, cos 1 for the same way, -1 for the opposite, weighted by the two parts' lengths and mapped to
+    (1 + cos) / 2. A paw's bone, nearly vertical, weighs little; 1 for a template without feet."""
+    num = den = 0.0
+    for foot in template.feet:
+        end = template.parents[foot] if template.is_tip(foot) else foot
+        start = template.parents[end] if end >= 0 else -1
+        if start < 0:
+            continue
+        rig = (joints[end] - joints[start])[[0, 2]]
+        ref = (template.positions[end] - template.positions[start])[[0, 2]]
+        num += float(rig @ ref)
+        den += float(np.linalg.norm(rig) * np.linalg.norm(ref))
+    return 1.0 if den < 1e-12 else max((1.0 + num / den) / 2, 0.0)
 
 
 class ConfidenceModel:
@@ -167,9 +186,14 @@ class ConfidenceModel:
     def from_dict(cls, data: dict) -> "ConfidenceModel":
         from .errors import TemplateError
         try:
-            if list(data["features"]) != list(FEATURES):
-                raise ValueError(f"features {data['features']} are not {list(FEATURES)}")
-            model = cls(data["coef"], data["intercept"], data["mean"], data["scale"], data["bone_log_sigma"])
+            named = list(data["features"])
+            if named != list(FEATURES)[:len(named)]:
+                raise ValueError(f"features {named} are not {list(FEATURES)}")
+            # A model learned before the later features existed gives them no weight.
+            missing = len(FEATURES) - len(named)
+            model = cls(list(data["coef"]) + [0.0] * missing, data["intercept"],
+                        list(data["mean"]) + [0.0] * missing, list(data["scale"]) + [1.0] * missing,
+                        data["bone_log_sigma"])
             if not (len(model.coef) == len(model.mean) == len(model.scale) == len(FEATURES)):
                 raise ValueError("coefficient counts differ")
         except (KeyError, TypeError, ValueError) as e:

@@ -220,6 +220,48 @@ def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_betw
     assert again.record["calibration_rigs"] == 30 and again.record["right_rigs"] == 12
 
 
+def test_feet_facing_tells_a_rig_turned_round():
+    """The template's own joints face its way (1); turned half round about the vertical, as a rig made facing
+    backwards is, they face the other way (0); a quarter turn is half way. A model learned before the feature
+    existed still loads, and gives it no weight."""
+    from autorig.confidence import FEATURES, ConfidenceModel, feet_facing
+    template = load_template(ROOT / "templates" / "handset" / "biped.json")
+    def turned(degrees):
+        a = np.radians(degrees)
+        turn = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+        return template.positions @ turn.T
+    assert feet_facing(template.positions, template) == pytest.approx(1.0)
+    assert feet_facing(turned(180), template) == pytest.approx(0.0, abs=1e-9)
+    assert feet_facing(turned(90), template) == pytest.approx(0.5)
+    assert feet_facing(turned(180), replace(template, feet=())) == 1.0
+    old = {"features": list(FEATURES[:-1]), "coef": [0.1] * (len(FEATURES) - 1), "intercept": 0.2,
+           "mean": [0.0] * (len(FEATURES) - 1), "scale": [1.0] * (len(FEATURES) - 1), "bone_log_sigma": [0.1]}
+    model = ConfidenceModel.from_dict(old)
+    row = {f: 0.5 for f in FEATURES}
+    assert model.probability(row) == model.probability({**row, "facing": 0.01})
+    with pytest.raises(TemplateError):
+        ConfidenceModel.from_dict({**old, "features": list(FEATURES[1:])})
+
+
+def test_the_shipped_biped_knows_a_rig_facing_the_wrong_way():
+    """A mannequin rigged with its front given the wrong way round (left and right swapped, the knees bent
+    forwards) is wrong, and its confidence says so; rigged the right way, its confidence says it is right.
+    (Arms hanging, the backwards rig still scores 0.58: its toes were put on its heels and point the
+    template's way, so its feet cannot tell.)"""
+    from autorig.confidence import BAD_ERROR
+    for pose in ("t", "a"):
+        sample = mannequin(pose=pose, proportions="adult", resolution=48)
+        height = float(np.ptp(sample.vertices[:, 1]))
+        for front, right in (("z", True), ("-z", False)):
+            rig = autorig.rig((sample.vertices, sample.faces), "biped", autorig.RigOptions(up="y", front=front))
+            worst = max(np.linalg.norm(rig.joints[rig.names.index(k)] - sample.joints[k]) / height
+                        for k in rig.names if k in sample.joints and not k.endswith("_end"))
+            if right:
+                assert rig.info["confidence"] >= 0.5, (pose, worst, rig.info)
+            else:
+                assert worst > BAD_ERROR and rig.info["confidence"] < 0.5, (pose, worst, rig.info)
+
+
 def test_penalty_terms_add_up_to_the_search_cost():
     sample = mannequin(pose="a", resolution=48)
     prepared = prepare(sample.vertices, sample.faces, "y", "z")
