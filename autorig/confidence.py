@@ -20,9 +20,10 @@ carries a *calibrated* model instead (``ConfidenceModel``): a logistic regressio
 examples whose true error is known, of the parts above, of how far the rig's proportions are from the
 learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
 examples), and of whether its feet point the way the template's do (``facing``: a rig made facing backwards,
-left and right swapped, has the proportions and costs of a right one; its toes point the wrong way). Its output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height)
-rather than wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above
-"probably right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
+left and right swapped, has the proportions and costs of a right one; its toes point the wrong way). Its
+output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height) rather than
+wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above "probably
+right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
 never lower it. The model's probability is then multiplied by the fit, limbs, extra and search parts
 (``beyond_calibration``): the failures those stand for are ones no calibration rig shows, so the model cannot
 have learned them. ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
@@ -46,7 +47,8 @@ GOOD_ERROR = 0.10
 # fitted on right and wrong rigs only, so that its 0.5 line falls between the two rather than on GOOD_ERROR.
 BAD_ERROR = 0.20
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
-# holds them out), not whether the rig is right; so is the direction term of the cost per bone.
+# holds them out), not whether the rig is right; so is the direction term of the cost per bone. The feet are
+# the exception (``facing``): seen from above, toes point forwards in any rest pose.
 FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
@@ -138,14 +140,14 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
 
 
 def feet_facing(joints: np.ndarray, template: Template) -> float:
-    """In (0, 1]: how nearly the rig's feet (``joints`` [J, 3], canonical frame) point the way the template's
+    """In [0, 1]: how nearly the rig's feet (``joints`` [J, 3], canonical frame) point the way the template's
     do, seen from above: each foot's last bone but its tip's (ankle to toe), its horizontal part against the
     template's, cos 1 for the same way, -1 for the opposite, weighted by the two parts' lengths and mapped to
     (1 + cos) / 2. A paw's bone, nearly vertical, weighs little; 1 for a template without feet."""
     num = den = 0.0
     for foot in template.feet:
         end = template.parents[foot] if template.is_tip(foot) else foot
-        start = template.parents[end] if end >= 0 else -1
+        start = template.parents[end]
         if start < 0:
             continue
         rig = (joints[end] - joints[start])[[0, 2]]
