@@ -246,8 +246,8 @@ def test_feet_facing_tells_a_rig_turned_round():
 def test_the_shipped_biped_knows_a_rig_facing_the_wrong_way():
     """A mannequin rigged with its front given the wrong way round (left and right swapped, the knees bent
     forwards) is wrong, and its confidence says so; rigged the right way, its confidence says it is right.
-    (Arms hanging, the backwards rig still scores 0.58: its toes were put on its heels and point the
-    template's way, so its feet cannot tell.)"""
+    (Not with the arms hanging: that backwards rig still scores above 0.5, its toes put on its heels and
+    pointing the template's way, so its feet cannot tell.)"""
     from autorig.confidence import BAD_ERROR
     for pose in ("t", "a"):
         sample = mannequin(pose=pose, proportions="adult", resolution=48)
