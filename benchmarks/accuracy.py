@@ -9,7 +9,7 @@ over the template joints the ground truth maps) and skin-weight agreement on the
 mannequins (``autorig.samples``) know their exact skeleton, so they are scored on joints only.
 
 With ``--cv``, also the cross-validation on the training corpus (``benchmarks/cross_validation.py``): each
-kind learned as ``templates/retrain.sh`` learns it (the biped everything, the quadruped its confidence) from the
+kind learned as ``templates/retrain.sh`` learns it (``cross_validation.shipped_parts``) from the
 other folds of whole groups and tested on the held-out ones, before (hand-set) against after; the two kinds
 run side by side in two processes.
 
@@ -143,16 +143,14 @@ def main(argv=None) -> int:
     return 0
 
 
-# What templates/retrain.sh learns for each kind.
-SHIPPED_PARTS = {"biped": ["proportions", "penalties", "placement", "confidence"],
-                 "quadruped": ["orientation", "placement", "confidence"]}
+KINDS = ("biped", "quadruped")
 
 
 def _start_cross_validation(shared: Path, folds: int):
     """Futures of the cross-validation summaries of both kinds, each computed in a process of its own."""
     from concurrent.futures import ProcessPoolExecutor
-    pool = ProcessPoolExecutor(max_workers=len(SHIPPED_PARTS))
-    futures = [pool.submit(_cross_validation, kind, shared, folds) for kind in SHIPPED_PARTS]
+    pool = ProcessPoolExecutor(max_workers=len(KINDS))
+    futures = [pool.submit(_cross_validation, kind, shared, folds) for kind in KINDS]
     pool.shutdown(wait=False)
     return futures
 
@@ -162,7 +160,7 @@ def _cross_validation(kind: str, shared: Path, folds: int) -> str:
     import cross_validation
     with tempfile.TemporaryDirectory() as tmp:
         rows = cross_validation.evaluate(kind, shared / "data" / "train", folds, Path(tmp), shared,
-                                         lambda _line: None, SHIPPED_PARTS[kind])
+                                         lambda _line: None, cross_validation.shipped_parts(kind))
     return "\n".join([cross_validation.summary(kind, rows)] + [cross_validation._line(r) for r in rows])
 
 

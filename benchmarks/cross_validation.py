@@ -5,7 +5,9 @@
 The corpus (``shared/data/train``) is split into groups that must never be on both sides: bipeds that share a
 body mesh, quadrupeds that share a skeleton (a species or family: the bovids, the bears, the pigs). The groups
 are dealt round-robin into folds; for each fold a template is learned with ``autorig.learn.learn_template`` from
-the other folds (proportions, penalty weights, confidence model), and every character of the fold is rigged with
+the other folds, learning what the built-in template of the kind learned (``shipped_parts``: the biped its
+proportions, penalty weights, placement and confidence; the quadruped its head/tail cue, placement and
+confidence) unless ``--learn`` says otherwise, and every character of the fold is rigged with
 it, with the axes given (+y up, +z front) and detected, and scored by ``shared/tools/score.py``. "Before" is
 the hand-set template of the same kind (``templates/handset/``, the base the built-in ones are learned from).
 
@@ -27,6 +29,12 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 HANDSET = ROOT / "templates" / "handset"
+
+
+def shipped_parts(kind: str) -> list[str]:
+    """What the built-in template of ``kind`` learned (its ``learned_from`` record, written by
+    ``templates/retrain.sh``), so that "after" measures the template users get."""
+    return list(json.loads((ROOT / "templates" / f"{kind}.json").read_text())["learned_from"]["learned"])
 
 
 def corpus(train: Path, kind: str) -> list[tuple[Path, str]]:
@@ -157,7 +165,8 @@ def main(argv=None) -> int:
     parser.add_argument("--folds", type=int, default=4)
     parser.add_argument("--out", type=Path, help="keep the templates and rigs here (default: a temporary folder)")
     parser.add_argument("--json", type=Path, help="also write the rows here")
-    parser.add_argument("--learn", help="what to learn, as autorig learn --learn (default: everything)")
+    parser.add_argument("--learn", help="what to learn, as autorig learn --learn (default: what the built-in "
+                                        "template of each kind learned)")
     args = parser.parse_args(argv)
     train = args.shared / "data" / "train"
     if not train.is_dir():
@@ -171,7 +180,7 @@ def main(argv=None) -> int:
         out_dir.mkdir(parents=True, exist_ok=True)
         for kind in args.kinds.split(","):
             all_rows[kind] = evaluate(kind, train, args.folds, out_dir, args.shared, lambda s: print(s, flush=True),
-                                      args.learn.split(",") if args.learn else None)
+                                      args.learn.split(",") if args.learn else shipped_parts(kind))
     for kind, rows in all_rows.items():
         print(summary(kind, rows))
     if args.json:
