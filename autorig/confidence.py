@@ -19,8 +19,10 @@ Without a model, the confidence is their product. A template learned from exampl
 carries a *calibrated* model instead (``ConfidenceModel``): a logistic regression, fitted on rigs of the
 examples whose true error is known, of the parts above, of how far the rig's proportions are from the
 learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
-examples), and of whether its feet point the way the template's do (``facing``: a rig made facing backwards,
-left and right swapped, has the proportions and costs of a right one; its toes point the wrong way). Its
+examples), of whether its feet point the way the template's do (``facing``: a rig made facing backwards, left
+and right swapped, has the proportions and costs of a right one; its toes point the wrong way), and of whether
+the mesh's feet lie in front of its shins (``toes``: a backwards rig whose toe joints went onto the heels points
+them the template's way, but the feet it stands on still point the other). Its
 output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height) rather than
 wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above "probably
 right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
@@ -48,11 +50,18 @@ GOOD_ERROR = 0.10
 BAD_ERROR = 0.20
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
 # holds them out), not whether the rig is right; so is the direction term of the cost per bone. The feet are
-# the exception (``facing``): seen from above, toes point forwards in any rest pose.
-FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing")
+# the exception (``facing``, and ``toes`` for the mesh's own feet): seen from above, toes point forwards in any
+# rest pose.
+FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing", "toes")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
 FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit part is 1/2
+# Where ``toes_forward`` looks, as fractions of the height, by a standing figure's build (an ankle sits some 4-5 %
+# of the height up, a knee about 28 %; a foot is some 15 % of the height long): the feet are the mesh below
+# FOOT_BAND, the shins between SHIN_BAND's bounds, each within FOOT_REACH (seen from above) of the rig's ankle.
+FOOT_BAND = 0.04
+SHIN_BAND = (0.10, 0.25)
+FOOT_REACH = 0.15
 
 
 def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embedding, template: Template,
@@ -91,7 +100,7 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
     model = ConfidenceModel.from_dict(template.confidence)
     free_per_bone = posture_free_cost_per_bone(embedding, graph, template)
-    values = features(parts, free_per_bone, joints, template, model.bone_log_sigma)
+    values = features(parts, free_per_bone, joints, template, model.bone_log_sigma, field.surface_vertices)
     return (model.probability(values) * beyond_calibration(parts, free_per_bone),
             {k: round(float(v), 3) for k, v in parts.items()})
 
@@ -123,10 +132,10 @@ def posture_free_cost_per_bone(embedding: Embedding, graph: SphereGraph, templat
 
 
 def features(parts: dict, per_bone: float, joints: np.ndarray, template: Template,
-             bone_log_sigma: np.ndarray) -> dict[str, float]:
-    """{feature: value} of ``FEATURES`` for a rig's ``joints`` [J, 3] (canonical frame) with confidence
-    ``parts``; ``bone_log_sigma`` [J] is the spread over the examples of each joint's incoming bone's log
-    length (entry 0, the root's, unused)."""
+             bone_log_sigma: np.ndarray, vertices: np.ndarray) -> dict[str, float]:
+    """{feature: value} of ``FEATURES`` for a rig's ``joints`` [J, 3] of the mesh with ``vertices`` [V, 3]
+    (both in the canonical frame) with confidence ``parts``; ``bone_log_sigma`` [J] is the spread over the
+    examples of each joint's incoming bone's log length (entry 0, the root's, unused)."""
     child = np.flatnonzero(template.parents >= 0)
     parent = template.parents[child]
     rig = joints[child] - joints[parent]
@@ -136,7 +145,8 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
     z = np.log(rig_length / ref_length) / np.maximum(bone_log_sigma[child], 0.05)
     return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],
             "inside": parts["inside"], "symmetry": parts["symmetry"], "search": parts["search"],
-            "proportions": float(np.mean(z ** 2)), "facing": feet_facing(joints, template)}
+            "proportions": float(np.mean(z ** 2)), "facing": feet_facing(joints, template),
+            "toes": toes_forward(vertices, joints, template)}
 
 
 def feet_facing(joints: np.ndarray, template: Template) -> float:
@@ -155,6 +165,35 @@ def feet_facing(joints: np.ndarray, template: Template) -> float:
         num += float(rig @ ref)
         den += float(np.linalg.norm(rig) * np.linalg.norm(ref))
     return 1.0 if den < 1e-12 else max((1.0 + num / den) / 2, 0.0)
+
+
+def toes_forward(vertices: np.ndarray, joints: np.ndarray, template: Template) -> float:
+    """How far the mesh's feet lie in front of its shins (+z, the way the template faces), as a fraction of the
+    height, averaged over the template's feet: for each, the mean of the mesh's vertices [V, 3] below
+    ``FOOT_BAND`` minus the mean of those in ``SHIN_BAND``, both within ``FOOT_REACH`` of the rig's ankle (the
+    joint above the foot's last bone; ``joints`` [J, 3], canonical frame), seen from above. Positive for a
+    figure rigged facing the way it stands, negative for one rigged facing backwards, wherever its toe joints
+    went; 0 for a template without feet or no mesh about the ankles, and near 0 where no foot shows (a robe to
+    the ground)."""
+    if len(vertices) == 0:
+        return 0.0
+    floor, height = float(vertices[:, 1].min()), float(np.ptp(vertices[:, 1]))
+    if height <= 0:
+        return 0.0
+    up = (vertices[:, 1] - floor) / height
+    feet = up < FOOT_BAND
+    shins = (up > SHIN_BAND[0]) & (up < SHIN_BAND[1])
+    offsets = []
+    for foot in template.feet:
+        end = template.parents[foot] if template.is_tip(foot) else foot
+        ankle = template.parents[end]
+        if ankle < 0:
+            continue
+        near = np.linalg.norm((vertices - joints[ankle])[:, [0, 2]], axis=1) < FOOT_REACH * height
+        if (near & feet).sum() < 2 or (near & shins).sum() < 2:
+            continue
+        offsets.append((vertices[near & feet, 2].mean() - vertices[near & shins, 2].mean()) / height)
+    return float(np.mean(offsets)) if offsets else 0.0
 
 
 class ConfidenceModel:
@@ -204,7 +243,10 @@ class ConfidenceModel:
 
 
 def _transform(name: str, value: float) -> float:
-    """Parts in (0, 1] by their log (a product becomes a sum); the costs and deviations by log1p."""
+    """Parts in (0, 1] by their log (a product becomes a sum); the costs and deviations by log1p; ``toes``, a
+    signed offset, as it is."""
+    if name == "toes":
+        return float(value)
     if name in ("cost_per_bone", "proportions"):
         return float(np.log1p(max(value, 0.0)))
     return float(np.log(max(value, 1e-3)))

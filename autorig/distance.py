@@ -178,6 +178,11 @@ class DistanceField:
         """[N] exact unsigned distance of each point [N, 3] to the surface."""
         return self.surface.distance(points)
 
+    @property
+    def surface_vertices(self) -> np.ndarray:
+        """[V, 3] the working mesh's vertices, in this field's frame."""
+        return self.surface.vertices
+
 
 @dataclass
 class MovedField:
@@ -202,6 +207,11 @@ class MovedField:
 
     def surface_distance(self, points: np.ndarray) -> np.ndarray:
         return self.base.surface_distance(self._in_base(points)) * self.scale
+
+    @property
+    def surface_vertices(self) -> np.ndarray:
+        """[V, 3] the working mesh's vertices, in this frame."""
+        return self.scale * self.base.surface_vertices @ self.rotation.T + self.offset
 
     def _in_base(self, points: np.ndarray) -> np.ndarray:
         """Points [N, 3] of this frame in the frame the field was built in."""

@@ -223,7 +223,7 @@ def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_betw
 def test_feet_facing_tells_a_rig_turned_round():
     """The template's own joints face its way (1); turned half round about the vertical, as a rig made facing
     backwards is, they face the other way (0); a quarter turn is half way. A model learned before the feature
-    existed still loads, and gives it no weight."""
+    (and ``toes``) existed still loads, and gives them no weight."""
     from autorig.confidence import FEATURES, ConfidenceModel, feet_facing
     template = load_template(ROOT / "templates" / "handset" / "biped.json")
     def turned(degrees):
@@ -234,22 +234,47 @@ def test_feet_facing_tells_a_rig_turned_round():
     assert feet_facing(turned(180), template) == pytest.approx(0.0, abs=1e-9)
     assert feet_facing(turned(90), template) == pytest.approx(0.5)
     assert feet_facing(turned(180), replace(template, feet=())) == 1.0
-    old = {"features": list(FEATURES[:-1]), "coef": [0.1] * (len(FEATURES) - 1), "intercept": 0.2,
-           "mean": [0.0] * (len(FEATURES) - 1), "scale": [1.0] * (len(FEATURES) - 1), "bone_log_sigma": [0.1]}
+    known = FEATURES.index("facing")
+    old = {"features": list(FEATURES[:known]), "coef": [0.1] * known, "intercept": 0.2, "mean": [0.0] * known,
+           "scale": [1.0] * known, "bone_log_sigma": [0.1]}
     model = ConfidenceModel.from_dict(old)
     row = {f: 0.5 for f in FEATURES}
-    assert model.probability(row) == model.probability({**row, "facing": 0.01})
+    assert model.probability(row) == model.probability({**row, "facing": 0.01, "toes": -0.05})
+    assert model.probability(row) != model.probability({**row, "inside": 0.01})
     with pytest.raises(TemplateError):
-        ConfidenceModel.from_dict({**old, "features": list(FEATURES[1:])})
+        ConfidenceModel.from_dict({**old, "features": list(FEATURES[1:known + 1])})
+
+
+def test_toes_forward_tells_a_mesh_turned_round():
+    """A mannequin's feet lie in front of its shins (+z) wherever its toe joints are; turned half round about
+    the vertical, as a figure rigged facing backwards is, behind them. No feet (a template without, or no mesh
+    near the ankles) is no evidence either way."""
+    from autorig.confidence import toes_forward
+    template = load_template(ROOT / "templates" / "handset" / "biped.json")
+    sample = mannequin(pose="down", proportions="adult", resolution=48)
+    joints = np.array([sample.joints[n] for n in template.names])
+    half_turn = np.array([-1.0, 1.0, -1.0])
+    ahead = toes_forward(sample.vertices, joints, template)
+    assert ahead > 0.01
+    assert toes_forward(sample.vertices * half_turn, joints * half_turn, template) == pytest.approx(-ahead)
+    # Toe joints put on the heels (a backwards rig's) do not change what the mesh says.
+    on_heels = joints.copy()
+    for toe in ("left_toe", "right_toe", "left_toe_end", "right_toe_end"):
+        i = template.names.index(toe)
+        on_heels[i, 2] = 2 * joints[template.parents[i], 2] - joints[i, 2]
+    assert toes_forward(sample.vertices, on_heels, template) == ahead
+    assert toes_forward(sample.vertices, joints, replace(template, feet=())) == 0.0
+    astray = joints + [0.0, 0.0, 1.0]      # ankles a body's height in front of the feet
+    assert toes_forward(sample.vertices, astray, template) == 0.0
 
 
 def test_the_shipped_biped_knows_a_rig_facing_the_wrong_way():
     """A mannequin rigged with its front given the wrong way round (left and right swapped, the knees bent
-    forwards) is wrong, and its confidence says so; rigged the right way, its confidence says it is right.
-    (Not with the arms hanging: that backwards rig still scores above 0.5, its toes put on its heels and
-    pointing the template's way, so its feet cannot tell.)"""
+    forwards) is wrong, and its confidence says so; rigged the right way, its confidence says it is right. With
+    the arms hanging, the backwards rig puts its toe joints on the heels, pointing the template's way: only the
+    mesh's feet (``toes``) tell."""
     from autorig.confidence import BAD_ERROR
-    for pose in ("t", "a"):
+    for pose in ("t", "a", "down"):
         sample = mannequin(pose=pose, proportions="adult", resolution=48)
         height = float(np.ptp(sample.vertices[:, 1]))
         for front, right in (("z", True), ("-z", False)):

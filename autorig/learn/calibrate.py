@@ -25,7 +25,7 @@ L2 = 0.05
 # The way each feature may move the confidence: costs and deviations only lower it, the parts in (0, 1] (1: no
 # sign of trouble) only raise it.
 SIGNS = {"cost_per_bone": -1, "proportions": -1, "limbs": 1, "extra": 1, "inside": 1, "symmetry": 1, "search": 1,
-         "facing": 1}
+         "facing": 1, "toes": 1}
 
 
 @dataclass
@@ -64,7 +64,7 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[di
     joints = learned_placement(sample.refined, template, sample.extent, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
     row = features(parts, posture_free_cost_per_bone(sample.embedding, sample.graph, template), joints, template,
-                   bone_log_sigma)
+                   bone_log_sigma, sample.field.surface_vertices)
     worst = float(np.max(np.linalg.norm(joints[sample.scored] - sample.truth[sample.scored], axis=1)))
     return row, worst
 
