@@ -20,9 +20,9 @@ carries a *calibrated* model instead (``ConfidenceModel``): a logistic regressio
 examples whose true error is known, of the parts above, of how far the rig's proportions are from the
 learned ones (``proportions``: mean squared z-score of the bones' log lengths against their spread over the
 examples), of whether its feet point the way the template's do (``facing``: a rig made facing backwards, left
-and right swapped, has the proportions and costs of a right one; its toes point the wrong way), and of whether
-the mesh's feet lie in front of its shins (``toes``: a backwards rig whose toe joints went onto the heels points
-them the template's way, but the feet it stands on still point the other). Its
+and right swapped, has the proportions and costs of a right one; its toes point the wrong way), and of how far
+the mesh's feet lie behind its shins (``feet_behind``: a backwards rig whose toe joints went onto the heels
+points them the template's way, but the feet it stands on still point the other). Its
 output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height) rather than
 wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above "probably
 right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
@@ -50,9 +50,11 @@ GOOD_ERROR = 0.10
 BAD_ERROR = 0.20
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
 # holds them out), not whether the rig is right; so is the direction term of the cost per bone. The feet are
-# the exception (``facing``, and ``toes`` for the mesh's own feet): seen from above, toes point forwards in any
-# rest pose.
-FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing", "toes")
+# the exception (``facing``, and ``feet_behind`` for the mesh's own feet): seen from above, toes point forwards
+# in any rest pose. Feet in front are no evidence of a right rig, only feet behind of a wrong one: a figure whose
+# feet do not show (a robe to the ground) must not look like a wrong rig for it.
+FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing",
+            "feet_behind")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
 LIMB_LIKE = 0.6          # an unused end counts as a limb when it stands out this much of the rigged ones
 FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit part is 1/2
@@ -146,7 +148,7 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
     return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],
             "inside": parts["inside"], "symmetry": parts["symmetry"], "search": parts["search"],
             "proportions": float(np.mean(z ** 2)), "facing": feet_facing(joints, template),
-            "toes": toes_forward(vertices, joints, template)}
+            "feet_behind": max(-toes_forward(vertices, joints, template), 0.0)}
 
 
 def feet_facing(joints: np.ndarray, template: Template) -> float:
@@ -243,11 +245,8 @@ class ConfidenceModel:
 
 
 def _transform(name: str, value: float) -> float:
-    """Parts in (0, 1] by their log (a product becomes a sum); the costs and deviations by log1p; ``toes``, a
-    signed offset, as it is."""
-    if name == "toes":
-        return float(value)
-    if name in ("cost_per_bone", "proportions"):
+    """Parts in (0, 1] by their log (a product becomes a sum); the costs and deviations by log1p."""
+    if name in ("cost_per_bone", "proportions", "feet_behind"):
         return float(np.log1p(max(value, 0.0)))
     return float(np.log(max(value, 1e-3)))
 

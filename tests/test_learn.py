@@ -223,7 +223,7 @@ def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_betw
 def test_feet_facing_tells_a_rig_turned_round():
     """The template's own joints face its way (1); turned half round about the vertical, as a rig made facing
     backwards is, they face the other way (0); a quarter turn is half way. A model learned before the feature
-    (and ``toes``) existed still loads, and gives them no weight."""
+    (and ``feet_behind``) existed still loads, and gives them no weight."""
     from autorig.confidence import FEATURES, ConfidenceModel, feet_facing
     template = load_template(ROOT / "templates" / "handset" / "biped.json")
     def turned(degrees):
@@ -239,7 +239,7 @@ def test_feet_facing_tells_a_rig_turned_round():
            "scale": [1.0] * known, "bone_log_sigma": [0.1]}
     model = ConfidenceModel.from_dict(old)
     row = {f: 0.5 for f in FEATURES}
-    assert model.probability(row) == model.probability({**row, "facing": 0.01, "toes": -0.05})
+    assert model.probability(row) == model.probability({**row, "facing": 0.01, "feet_behind": 0.05})
     assert model.probability(row) != model.probability({**row, "inside": 0.01})
     with pytest.raises(TemplateError):
         ConfidenceModel.from_dict({**old, "features": list(FEATURES[1:known + 1])})
@@ -272,7 +272,7 @@ def test_the_shipped_biped_knows_a_rig_facing_the_wrong_way():
     """A mannequin rigged with its front given the wrong way round (left and right swapped, the knees bent
     forwards) is wrong, and its confidence says so; rigged the right way, its confidence says it is right. With
     the arms hanging, the backwards rig puts its toe joints on the heels, pointing the template's way: only the
-    mesh's feet (``toes``) tell."""
+    mesh's feet (``feet_behind``) tell."""
     from autorig.confidence import BAD_ERROR
     for pose in ("t", "a", "down"):
         sample = mannequin(pose=pose, proportions="adult", resolution=48)
