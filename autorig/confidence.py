@@ -51,8 +51,8 @@ BAD_ERROR = 0.20
 # Bone directions are left out: they measure the rest pose (the corpus hangs its arms, a T-posed character
 # holds them out), not whether the rig is right; so is the direction term of the cost per bone. The feet are
 # the exception (``facing``, and ``feet_behind`` for the mesh's own feet): seen from above, toes point forwards
-# in any rest pose. Feet in front are no evidence of a right rig, only feet behind of a wrong one: a figure whose
-# feet do not show (a robe to the ground) must not look like a wrong rig for it.
+# in any rest pose. Feet in front are no evidence of a right rig, only feet behind of a wrong one: counted as a
+# signed offset, small feet read as a wrong rig's (CesiumMan 0.67 -> 0.60), and so would feet a robe hides.
 FEATURES = ("cost_per_bone", "limbs", "extra", "inside", "symmetry", "search", "proportions", "facing",
             "feet_behind")
 UNRIGGED_REACH = 0.25    # an end nearer than this (height units) to the rigged skeleton belongs to a rigged limb
@@ -173,10 +173,9 @@ def toes_forward(vertices: np.ndarray, joints: np.ndarray, template: Template) -
     """How far the mesh's feet lie in front of its shins (+z, the way the template faces), as a fraction of the
     height, averaged over the template's feet: for each, the mean of the mesh's vertices [V, 3] below
     ``FOOT_BAND`` minus the mean of those in ``SHIN_BAND``, both within ``FOOT_REACH`` of the rig's ankle (the
-    joint above the foot's last bone; ``joints`` [J, 3], canonical frame), seen from above. Positive for a
+    joint the foot's last bone starts from; ``joints`` [J, 3], canonical frame), seen from above. Positive for a
     figure rigged facing the way it stands, negative for one rigged facing backwards, wherever its toe joints
-    went; 0 for a template without feet or no mesh about the ankles, and near 0 where no foot shows (a robe to
-    the ground)."""
+    went; 0 for a template without feet or with no mesh about the ankles."""
     if len(vertices) == 0:
         return 0.0
     floor, height = float(vertices[:, 1].min()), float(np.ptp(vertices[:, 1]))
