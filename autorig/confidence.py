@@ -157,16 +157,22 @@ def feet_facing(joints: np.ndarray, template: Template) -> float:
     template's, cos 1 for the same way, -1 for the opposite, weighted by the two parts' lengths and mapped to
     (1 + cos) / 2. A paw's bone, nearly vertical, weighs little; 1 for a template without feet."""
     num = den = 0.0
-    for foot in template.feet:
-        end = template.parents[foot] if template.is_tip(foot) else foot
-        start = template.parents[end]
-        if start < 0:
-            continue
+    for start, end in _foot_bones(template):
         rig = (joints[end] - joints[start])[[0, 2]]
         ref = (template.positions[end] - template.positions[start])[[0, 2]]
         num += float(rig @ ref)
         den += float(np.linalg.norm(rig) * np.linalg.norm(ref))
     return 1.0 if den < 1e-12 else max((1.0 + num / den) / 2, 0.0)
+
+
+def _foot_bones(template: Template) -> list[tuple[int, int]]:
+    """(ankle, toe) joint indices of each of the template's feet: its last bone but its tip's."""
+    bones = []
+    for foot in template.feet:
+        end = template.parents[foot] if template.is_tip(foot) else foot
+        if template.parents[end] >= 0:
+            bones.append((int(template.parents[end]), int(end)))
+    return bones
 
 
 def toes_forward(vertices: np.ndarray, joints: np.ndarray, template: Template) -> float:
@@ -185,11 +191,7 @@ def toes_forward(vertices: np.ndarray, joints: np.ndarray, template: Template) -
     feet = up < FOOT_BAND
     shins = (up > SHIN_BAND[0]) & (up < SHIN_BAND[1])
     offsets = []
-    for foot in template.feet:
-        end = template.parents[foot] if template.is_tip(foot) else foot
-        ankle = template.parents[end]
-        if ankle < 0:
-            continue
+    for ankle, _ in _foot_bones(template):
         near = np.linalg.norm((vertices - joints[ankle])[:, [0, 2]], axis=1) < FOOT_REACH * height
         if (near & feet).sum() < 2 or (near & shins).sum() < 2:
             continue
