@@ -8,7 +8,7 @@
 Nothing heavy is imported here: the command line must start fast, so numpy, scipy, trimesh and libigl load
 only when a rig is actually computed.
 """
-__version__ = "0.1.0"
+from .version import __version__
 
 __all__ = ["rig", "Rig", "RigOptions", "skin", "SkinOptions", "AutorigError", "__version__"]
 

@@ -108,7 +108,7 @@ from pathlib import Path, PurePosixPath
 from typing import Callable, Iterable, Iterator
 from urllib.parse import unquote
 
-from . import __version__
+from .version import __version__
 from .errors import AutorigError, InputError, OutputError, SkeletonError, TemplateError
 from .quiet import quiet_libraries
 

@@ -62,7 +62,7 @@ def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> li
 
 def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD) -> str:
     """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there)."""
-    from . import __version__
+    from .version import __version__
 
     assets = review_order(result.assets, low)
     counts = result.counts

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import click
 
-from . import __version__
+from .version import __version__
 from .errors import AutorigError, OutputError
 from .quiet import quiet_libraries
 

@@ -35,6 +35,19 @@ from .errors import TemplateError
 
 AUTO = "auto"   # the template name that asks for a template-free skeleton (autorig.extract)
 
+# The embedding's hand-set penalty weights (Γ), what a template without learned ``penalty_weights`` uses; each
+# penalty is described in ``autorig.embed.penalties``, which weighs them. Set on the project's own mannequins.
+PENALTY_WEIGHTS = {
+    "length": 1.0,
+    "direction": 0.8,
+    "feet": 0.6,
+    "symmetry": 0.6,
+    "backtrack": 1.5,
+    "overlap": 3.0,
+    "fat": 1.0,
+    "height": 0.0,
+}
+
 
 @dataclass(frozen=True)
 class ReducedSkeleton:
@@ -73,7 +86,7 @@ class Template:
     symmetry   [(i, j)] mirror pairs of joint indices (i on the left, j on the right)
     feet       indices of the joints that should be lowest
     fat        indices of the joints that belong in the thickest parts of the body
-    penalty_weights  {penalty: weight} of the embedding (Γ); None for the hand-set ``embed.WEIGHTS``
+    penalty_weights  {penalty: weight} of the embedding (Γ); None for the hand-set ``PENALTY_WEIGHTS``
     helpers    weightless joints riding at fixed offsets from template joints (``Helper``)
     confidence a calibrated confidence model (``autorig.confidence.ConfidenceModel.to_dict``), or None
     learned_from  what ``autorig learn`` made the template from (kept for the record), or None
@@ -365,16 +378,15 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
 
 def _penalty_weights(value, bad) -> dict | None:
     """A template's Γ, checked: known penalty names, finite non-negative weights; missing ones keep the
-    hand-set default (``autorig.embed.penalties.WEIGHTS``)."""
+    hand-set default (``PENALTY_WEIGHTS``)."""
     if value is None:
         return None
-    from .embed.penalties import WEIGHTS
     if not isinstance(value, dict):
         raise bad('"penalty_weights" must be an object {penalty: weight}')
-    unknown = sorted(set(value) - set(WEIGHTS))
+    unknown = sorted(set(value) - set(PENALTY_WEIGHTS))
     if unknown:
-        raise bad(f'"penalty_weights" names unknown penalties {unknown}; known: {", ".join(WEIGHTS)}')
-    out = dict(WEIGHTS)
+        raise bad(f'"penalty_weights" names unknown penalties {unknown}; known: {", ".join(PENALTY_WEIGHTS)}')
+    out = dict(PENALTY_WEIGHTS)
     for k, v in value.items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
             raise bad(f'penalty weight {k!r} must be a finite number >= 0')

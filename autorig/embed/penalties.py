@@ -38,18 +38,11 @@ import numpy as np
 
 from ..errors import RigFailedError
 from ..graph import SphereGraph
-from ..template import ReducedSkeleton, Template
+from ..template import PENALTY_WEIGHTS, ReducedSkeleton, Template
 
-WEIGHTS = {
-    "length": 1.0,
-    "direction": 0.8,
-    "feet": 0.6,
-    "symmetry": 0.6,
-    "backtrack": 1.5,
-    "overlap": 3.0,
-    "fat": 1.0,
-    "height": 0.0,
-}
+# The hand-set Γ of the table above. It lives with the template data (a template's ``penalty_weights`` are
+# checked against its names), so that the template need not import the penalties that import it.
+WEIGHTS = PENALTY_WEIGHTS
 HEIGHT_UNIT = 0.1         # height (fraction of the figure) that costs one unit of the height penalty
 FEET_UNIT = 0.05          # height (fraction of the figure) that costs one unit of the feet penalty
 SHARED_FRACTION = 0.4     # paths may share spheres up to this fraction of the bone's length from its parent

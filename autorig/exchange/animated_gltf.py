@@ -15,7 +15,7 @@ import pygltflib
 from pygltflib import Accessor, Animation, AnimationChannel, AnimationChannelTarget, AnimationSampler, BufferView
 
 from ..result import Rig
-from . import write_file_atomic
+from .files import write_file_atomic
 from .gltf import _document
 
 if TYPE_CHECKING:  # format modules import no algorithms (see autorig.exchange)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from ..errors import OutputError
 from ..result import Rig
-from . import write_file_atomic
+from .files import write_file_atomic
 
 __all__ = ["write_fbx", "blender_path", "blender_command"]
 

@@ -39,10 +39,11 @@ import pygltflib
 from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, Mesh, Node, Primitive, Scene,
                        Skin)
 
-from .. import __version__
+from ..version import __version__
 from ..errors import InputError
 from ..result import Look, Rig
-from . import check_rig, parents_first, write_file_atomic
+from .arrays import check_rig, parents_first
+from .files import write_file_atomic
 from .gltf_look import gather_primitives, look_of, write_look
 
 __all__ = ["write_glb", "write_gltf", "glb_bytes", "gltf_bytes", "read_glb", "read_gltf_scene",

@@ -46,7 +46,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..result import Rig
-from . import check_rig, decimal_strings, write_file_atomic
+from .arrays import check_rig, decimal_strings
+from .files import write_file_atomic
 
 __all__ = ["write_json", "json_bytes", "read_json", "FORMAT_NAME", "FORMAT_VERSION"]
 

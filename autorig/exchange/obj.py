@@ -5,7 +5,7 @@ import os
 
 import numpy as np
 
-from . import write_file_atomic
+from .files import write_file_atomic
 
 __all__ = ["write_obj", "obj_bytes"]
 

@@ -24,7 +24,8 @@ import os
 import numpy as np
 
 from ..result import Rig
-from . import check_rig, decimal_strings, write_folder_atomic
+from .arrays import check_rig, decimal_strings
+from .files import write_folder_atomic
 
 __all__ = ["write_pinocchio", "pinocchio_files", "bone_weights", "FILES"]
 

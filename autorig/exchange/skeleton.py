@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import InputError, SkeletonError
 from ..result import JointNodes
-from . import parents_first
+from .arrays import parents_first
 
 __all__ = ["Skeleton", "read_skeleton", "skeleton_from_joints", "SKELETON_FORMATS"]
 

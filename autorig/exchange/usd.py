@@ -28,7 +28,8 @@ import numpy as np
 
 from ..errors import OutputError
 from ..result import Rig
-from . import check_rig, write_file_atomic
+from .arrays import check_rig
+from .files import write_file_atomic
 
 __all__ = ["write_usd", "require_usd", "SUFFIXES", "usd_joint_paths"]
 
