@@ -549,7 +549,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                                + (f", not {', '.join(unknown)}" if unknown else ""))
 
     from .batch import rig_folder
-    from .batch_progress import BatchProgress
+    from .batch.progress import BatchProgress
     from .pipeline import RigOptions, SkinOptions
 
     progress = BatchProgress(quiet=quiet)

@@ -140,7 +140,7 @@ def page_write_time(assets: Path, out: Path, page: Path):
     """(the resumed batch's result, median seconds of ``write_review`` over 5 writes): the timed run's page is
     left as it was, for the screenshots."""
     from autorig.batch import rig_folder
-    from autorig.batch_review import write_review
+    from autorig.batch.review import write_review
 
     result = rig_folder(assets, out, html=page)  # every asset unchanged: only the page is written again
     # The resumed run's result has the skipped statuses; the page reads the same thumbnails and fields.
@@ -156,7 +156,7 @@ def write_scaled_page(result, path: Path, scale: int) -> tuple[float, int]:
     """A page of ``scale`` assets: ``result``'s repeated under new names (the same thumbnails, so the same bytes
     each), written beside a copy of nothing: the links point at the real output folder."""
     from autorig.batch import BatchResult
-    from autorig.batch_review import write_review
+    from autorig.batch.review import write_review
 
     assets = [dataclasses.replace(a, input=f"copy{i // len(result.assets):03d}/{a.input}")
               for i, a in zip(range(scale), (result.assets * (scale // len(result.assets) + 1)))]

@@ -19,7 +19,9 @@ from click.testing import CliRunner
 from autorig import batch, samples
 from autorig.batch import (EXIT_SOME_FAILED, ClusterError, ConfigError, find_meshes, rig_folder,
                            write_junit_report)
-from autorig.batch_progress import BatchProgress
+from autorig.batch.plan import input_files, plan_assets
+from autorig.batch.progress import BatchProgress
+from autorig.batch.store import read_manifest
 from autorig.cli import BATCH_EXTENSIONS, cli
 from autorig.errors import InputError, SkeletonError, TemplateError
 from autorig.exchange.gltf import read_glb
@@ -335,7 +337,7 @@ def test_template_and_skeleton_replace_each_other_in_the_cascade(tmp_path):
     (tmp_path / "dogs" / "autorig.toml").write_text('template = "quadruped"\n')
 
     def plan(template="biped", options=RigOptions(up="y", front="z"), **kwargs):
-        plans = batch._plan(tmp_path, tmp_path / "out", template, options, "glb", ["obj"], **kwargs)
+        plans = plan_assets(tmp_path, tmp_path / "out", template, options, "glb", ["obj"], **kwargs)
         return {p.rel: p for p in plans}
 
     # The command line's skeleton, until a config says template; a deeper skeleton again replaces that.
@@ -406,7 +408,7 @@ def test_nearest_config_wins_key_by_key(tmp_path):
         'front = "x"\n[files."horse*.obj"]\ntemplate = "horse"\nup = "Z"\n[files."dogs/*"]\ntemplate = "quadruped"\n')
     (tmp_path / "dogs" / "big" / "autorig.json").write_text(
         json.dumps({"front": "-x", "files": {"bruno.obj": {"up": "auto"}}}))
-    plans = batch._plan(tmp_path, tmp_path / "out", "biped", RigOptions(up="y", front="z"), "glb",
+    plans = plan_assets(tmp_path, tmp_path / "out", "biped", RigOptions(up="y", front="z"), "glb",
                         batch.DEFAULT_EXTENSIONS)
     got = {p.rel: (p.template.name, p.up, p.front) for p in plans}
     assert got == {"a.obj": ("biped", "y", "x"), "horse.obj": ("horse", "z", "x"),
@@ -442,15 +444,15 @@ def test_config_template_file_is_relative_to_the_config(tmp_path):
     (tmp_path / "rigs" / "mine.json").write_text(_builtin_folder().joinpath("biped.json").read_text())
     (tmp_path / "a.obj").write_text("")
     (tmp_path / "autorig.toml").write_text('template = "rigs/mine.json"\n')
-    plans = batch._plan(tmp_path, tmp_path / "out", "quadruped", RigOptions(), "glb", ["obj"])
+    plans = plan_assets(tmp_path, tmp_path / "out", "quadruped", RigOptions(), "glb", ["obj"])
     assert plans[0].template.name == "biped"
     (tmp_path / "autorig.json").write_text("{}")
     with pytest.raises(ConfigError, match="both"):
-        batch._plan(tmp_path, tmp_path / "out", "quadruped", RigOptions(), "glb", ["obj"])
+        plan_assets(tmp_path, tmp_path / "out", "quadruped", RigOptions(), "glb", ["obj"])
     (tmp_path / "autorig.json").unlink()
     (tmp_path / "autorig.toml").write_text('template = "rigs/missing.json"\n')
     with pytest.raises(TemplateError, match="missing.json"):
-        batch._plan(tmp_path, tmp_path / "out", "quadruped", RigOptions(), "glb", ["obj"])
+        plan_assets(tmp_path, tmp_path / "out", "quadruped", RigOptions(), "glb", ["obj"])
 
 
 def test_same_stem_keeps_the_extension_and_key_covers_gltf_buffers(tmp_path):
@@ -458,12 +460,12 @@ def test_same_stem_keeps_the_extension_and_key_covers_gltf_buffers(tmp_path):
     (tmp_path / "hero.ply").write_text("")
     (tmp_path / "dog.gltf").write_text(json.dumps({"buffers": [{"uri": "dog%20data.bin"}, {"uri": "data:,x"}]}))
     (tmp_path / "dog data.bin").write_bytes(b"1")
-    plans = {p.rel: p for p in batch._plan(tmp_path, tmp_path / "out", "biped", RigOptions(), "glb",
+    plans = {p.rel: p for p in plan_assets(tmp_path, tmp_path / "out", "biped", RigOptions(), "glb",
                                            batch.DEFAULT_EXTENSIONS)}
     assert [plans["hero.obj"].output, plans["hero.ply"].output] == ["hero.obj.rigged.glb", "hero.ply.rigged.glb"]
-    assert list(batch._input_files(tmp_path / "dog.gltf")) == ["dog.gltf", "dog data.bin"]
+    assert list(input_files(tmp_path / "dog.gltf")) == ["dog.gltf", "dog data.bin"]
     (tmp_path / "dog data.bin").write_bytes(b"2")
-    again = {p.rel: p for p in batch._plan(tmp_path, tmp_path / "out", "biped", RigOptions(), "glb",
+    again = {p.rel: p for p in plan_assets(tmp_path, tmp_path / "out", "biped", RigOptions(), "glb",
                                            batch.DEFAULT_EXTENSIONS)}
     assert again["dog.gltf"].key != plans["dog.gltf"].key and again["hero.obj"].key == plans["hero.obj"].key
 
@@ -496,7 +498,7 @@ def test_an_unreadable_asset_fails_alone(tmp_path):
     assert [(a.input, a.status, a.error_type) for a in result.assets] == [("gone.obj", "failed", "InputError")]
     assert "cannot read" in result.assets[0].error and result.exit_code == 7
     # Not remembered: the file may come back.
-    assert batch._read_manifest(tmp_path / "out" / batch.MANIFEST_NAME) == {}
+    assert read_manifest(tmp_path / "out" / batch.MANIFEST_NAME) == {}
 
 
 def test_cluster_mode_without_dask_says_how_to_install(tmp_path, monkeypatch):

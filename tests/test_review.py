@@ -1,4 +1,4 @@
-"""The batch review page (autorig batch --html, autorig.batch_review), checked as a file and in headless Chromium.
+"""The batch review page (autorig batch --html, autorig.batch.review), checked as a file and in headless Chromium.
 
 One small batch is rigged once per module: a low-resolution mannequin (a good rig), a cylinder rigged as a
 biped (a rig of low confidence) under a name full of HTML's special characters, and a text file called

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import sys
 
-from .batch import AssetResult
+from .result import AssetResult
 
 
 class BatchProgress:

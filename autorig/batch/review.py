@@ -1,6 +1,6 @@
 """A page to review a batch by eye (``autorig batch ... --html review.html``): one card per asset, doubtful first.
 
-    from autorig.batch_review import write_review
+    from autorig.batch.review import write_review
     write_review(rig_folder("assets/", "rigged/", html=None), "review.html")   # rig_folder(html=...) does this
 
 The page is one self-contained HTML file: its style, script and thumbnails (WebP, a few kilobytes per view,
@@ -27,8 +27,8 @@ import os
 from pathlib import Path
 from urllib.parse import quote
 
-from .batch import AssetResult, BatchResult
-from .confidence import STRICT_THRESHOLD
+from ..confidence import STRICT_THRESHOLD
+from .result import AssetResult, BatchResult
 
 __all__ = ["write_review", "review_page", "review_order"]
 
@@ -42,7 +42,7 @@ def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRI
     low  confidence below which a rig counts as doubtful (default: where ``--strict`` stops)
     Raises ``OutputError`` if ``path`` cannot be written.
     """
-    from .exchange import write_file_atomic
+    from ..exchange import write_file_atomic
     page = review_page(result, Path(os.path.abspath(path)).parent, low)
     write_file_atomic(path, page.encode("utf-8"))
 
@@ -62,7 +62,7 @@ def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> li
 
 def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD) -> str:
     """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there)."""
-    from .version import __version__
+    from ..version import __version__
 
     assets = review_order(result.assets, low)
     counts = result.counts

@@ -1,0 +1,67 @@
+"""The batch's reports for machines: JSON and JUnit XML (the page for people is ``autorig.batch.review``)."""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict
+
+from ..version import __version__
+from .result import AssetResult, BatchResult
+
+def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
+    """Write ``result`` as JSON, atomically::
+
+        {"autorig": "0.1.0", "input": "/abs/assets", "output": "/abs/rigged", "seconds": 12.5,
+         "summary": {"total": 4, "ok": 2, "failed": 1, "skipped": 1, "exit_code": 6},
+         "assets": [{"input": "dogs/rex.obj", "output": "dogs/rex.rigged.glb", "status": "ok",
+                     "previous": null, "template": "quadruped", "up": "y", "front": "z", "error": null,
+                     "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...},
+                     "confidence_parts": {"fit": 0.9, ...}, "previous_timings": {}, "thumbnails": {}},
+                    ...]}
+    """
+    from ..exchange import write_file_atomic
+    document = {"autorig": __version__, "input": str(result.input_dir.resolve()),
+                "output": str(result.output_dir.resolve()), "seconds": round(result.seconds, 3),
+                "summary": {"total": len(result.assets), **result.counts, "exit_code": result.exit_code},
+                "assets": [_json_asset(a) for a in result.assets]}
+    write_file_atomic(path, (json.dumps(document, indent=1) + "\n").encode())
+
+
+def _json_asset(asset: AssetResult) -> dict:
+    document = asdict(asset)
+    document["seconds"] = round(asset.seconds, 3)
+    document["timings"] = {stage: round(s, 4) for stage, s in asset.timings.items()}
+    return document
+
+
+def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
+    """Write ``result`` as JUnit XML, atomically: one testsuite, one testcase per asset (classname its folder,
+    name its file), ``<failure>`` for an asset without a rig, ``<skipped>`` for an unchanged rigged asset."""
+    import xml.etree.ElementTree as ET
+
+    from ..exchange import write_file_atomic
+
+    failures = sum(a.failed for a in result.assets)
+    skipped = sum(a.status == "skipped" and not a.failed for a in result.assets)
+    attributes = {"tests": str(len(result.assets)), "failures": str(failures), "errors": "0",
+                  "skipped": str(skipped), "time": f"{result.seconds:.3f}"}
+    suites = ET.Element("testsuites", {"name": "autorig batch", **attributes})
+    suite = ET.SubElement(suites, "testsuite", {"name": f"autorig batch {result.input_dir.name}", **attributes})
+    for asset in result.assets:
+        folder, _, name = asset.input.rpartition("/")
+        case = ET.SubElement(suite, "testcase", {"classname": folder or ".", "name": name,
+                                                 "time": f"{asset.seconds:.3f}"})
+        if asset.failed:
+            message = asset.error or "failed"
+            if asset.status == "skipped":
+                message += " (unchanged since the run that failed)"
+            failure = ET.SubElement(case, "failure", {"message": message, "type": asset.error_type or "Error"})
+            failure.text = message
+        elif asset.status == "skipped":
+            ET.SubElement(case, "skipped", {"message": "unchanged since the last run"})
+        else:
+            out = ET.SubElement(case, "system-out")
+            out.text = f"{asset.template} -> {asset.output}" + (
+                f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "")
+    ET.indent(suites)
+    write_file_atomic(path, ET.tostring(suites, encoding="utf-8", xml_declaration=True) + b"\n")

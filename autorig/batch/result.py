@@ -1,0 +1,72 @@
+"""What a batch reports: one ``AssetResult`` per asset, gathered in a ``BatchResult``."""
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+EXIT_SOME_FAILED = 7  # some of the batch's assets failed (6 is rig --strict's low confidence)
+
+
+@dataclass
+class AssetResult:
+    """What happened to one asset.
+
+    input       path relative to the input folder (``/``-separated)
+    output      path of its output relative to the output folder
+    status      ``ok`` (rigged now), ``failed`` (now) or ``skipped`` (unchanged since an earlier run)
+    previous    for ``skipped``: ``ok`` or ``failed``, the outcome that is kept; else None
+    template    name of the template used (``auto`` for the template-free skeleton), or ``skeleton FILE`` for
+                the user's skeleton FILE (relative to the input folder when inside it)
+    up, front   the axes used ("" with a skeleton: they do not apply)
+    error       the one-line error of a failure (also of a skipped earlier failure), naming the asset
+    error_type  the error's class name (``InputError``, ``RigFailedError``, ...), else None
+    confidence  ``rig.info["confidence"]`` when the pipeline reports one, else None
+    confidence_parts  ``rig.info["confidence_parts"]``, what the confidence is the product of, else {}
+    seconds     wall time of the work on this asset, transfer included (0 when skipped)
+    timings     {stage: seconds} of the pipeline and the ``write`` stage ({} when skipped)
+    previous_timings  for ``skipped``: the ``timings`` of the run that rigged it, else {}
+    thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
+                flat shape) relative to the output folder, when
+                a run with ``html`` drew them (kept for skipped assets), else {}
+    """
+    input: str
+    output: str
+    status: str
+    template: str
+    up: str
+    front: str
+    previous: str | None = None
+    error: str | None = None
+    error_type: str | None = None
+    confidence: float | None = None
+    seconds: float = 0.0
+    timings: dict[str, float] = field(default_factory=dict)
+    confidence_parts: dict[str, float] = field(default_factory=dict)
+    previous_timings: dict[str, float] = field(default_factory=dict)
+    thumbnails: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def failed(self) -> bool:
+        """Whether the asset has no rig: it failed now, or failed before and is unchanged since."""
+        return self.status == "failed" or self.previous == "failed"
+
+
+@dataclass
+class BatchResult:
+    """The outcome of ``rig_folder``: one ``AssetResult`` per asset, in the order assets are found."""
+    input_dir: Path
+    output_dir: Path
+    assets: list[AssetResult]
+    seconds: float
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """{"ok": n, "failed": n, "skipped": n} by ``status``."""
+        counts = Counter(a.status for a in self.assets)
+        return {status: counts[status] for status in ("ok", "failed", "skipped")}
+
+    @property
+    def exit_code(self) -> int:
+        """0 when every asset has a rig, ``EXIT_SOME_FAILED`` when any has none (see ``AssetResult.failed``)."""
+        return EXIT_SOME_FAILED if any(a.failed for a in self.assets) else 0

@@ -1,0 +1,175 @@
+"""The batch's workers: one asset rigged in a scratch folder from the bytes sent to it (``rig_one``), and the
+local process pool that runs them (``run_locally``; ``autorig.batch.cluster`` runs them on Dask instead)."""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+import time
+from concurrent.futures import FIRST_COMPLETED, wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Iterator
+
+from ..errors import AutorigError, SkeletonError
+from ..quiet import quiet_libraries
+
+if TYPE_CHECKING:
+    from .plan import Plan
+
+# libigl's own thread pool (its AABB distance queries and winding numbers) reads IGL_NUM_THREADS: without it each
+# worker of "-j 2" would start two threads and the pair would fight over the two cores.
+_THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS", "IGL_NUM_THREADS")
+
+
+@dataclass(frozen=True)
+class Job:
+    """What a worker needs: the input's files by relative name (the mesh first), the template or the parsed
+    skeleton (workers read no files but the ones sent), and the options."""
+    name: str
+    files: dict[str, bytes]
+    template: object
+    skeleton: object
+    options: object
+    fmt: str
+    names: str = "template"
+    thumbnails: bool = False
+
+
+def rig_one(job: Job) -> dict:
+    """Rig one asset in a worker (a local process or a Dask worker): write its files to a scratch folder,
+    rig, write the output there and return the output's bytes. Never raises for a problem with the asset."""
+    from ..exchange import write_rig
+    from ..pipeline import rig, skin
+
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, quiet_libraries():
+        source = Path(scratch, "in")
+        mesh = source / next(iter(job.files))
+        try:
+            for name, data in job.files.items():
+                (source / name).parent.mkdir(parents=True, exist_ok=True)
+                (source / name).write_bytes(data)
+            if job.skeleton is None:
+                result = rig(str(mesh), job.template, job.options)
+            else:
+                if job.fmt == "pinocchio":
+                    # What write_pinocchio would refuse after the work; the command line says so up front.
+                    from ..exchange.pinocchio import unfit_skeleton
+                    problem = unfit_skeleton(job.skeleton.parents)
+                    if problem:
+                        raise SkeletonError(f"{job.name}: {problem}")
+                result = skin(str(mesh), job.skeleton, job.options)
+            from ..naming import rename_joints
+            result = rename_joints(result, job.names)
+            timings = dict(result.timings)
+            result.timings = {}  # they differ on every run, and the outputs must not
+            written = time.perf_counter()
+            out = write_rig(result, Path(scratch, "rig"), job.fmt)
+            timings["write"] = time.perf_counter() - written
+            data = {p.name: p.read_bytes() for p in sorted(out.iterdir())} if out.is_dir() else out.read_bytes()
+            pictures = {}
+            if job.thumbnails:
+                drawn = time.perf_counter()
+                pictures = _thumbnails_of(result)
+                timings["thumbnails"] = time.perf_counter() - drawn
+            confidence = result.info.get("confidence")
+            return {"status": "ok", "remember": True, "data": data, "timings": timings, "thumbnails": pictures,
+                    "confidence": None if confidence is None else float(confidence),
+                    "confidence_parts": dict(result.info.get("confidence_parts") or {}),
+                    "seconds": time.perf_counter() - start}
+        except AutorigError as e:
+            error, error_type, remember = str(e), type(e).__name__, True
+        except Exception as e:  # a bug in autorig: report it, and try again on the next run
+            error, error_type, remember = f"internal error: {type(e).__name__}: {e}", type(e).__name__, False
+        # Messages name the scratch copy; name the asset instead, and always.
+        error = " ".join(error.replace(str(mesh), job.name).replace(str(source) + os.sep, "").split())
+        if job.name not in error:
+            error = f"{job.name}: {error}"
+        return {"status": "failed", "remember": remember, "error": error, "error_type": error_type,
+                "seconds": time.perf_counter() - start}
+
+
+def _thumbnails_of(rig) -> dict[str, bytes]:
+    """{view: WebP bytes} of ``rig``, or {} if they cannot be drawn (a cluster worker without matplotlib, or a
+    bug in the drawing): the rig itself is fine, so the asset is not failed for it; its card says so."""
+    try:
+        from ..preview import render_thumbnails
+        return render_thumbnails(rig)
+    except Exception:
+        return {}
+
+
+def run_locally(jobs: int, work: Iterator[tuple[Plan, Job]], finished) -> None:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("spawn")
+    with _one_thread_per_worker():
+        broken = True
+        while broken:  # a crashed worker breaks the whole pool: the rest of the work goes to a new one
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as executor:
+                broken = drain(executor, 2 * jobs, work, finished,
+                               lost_message="worker process died (crashed or killed) while rigging this asset "
+                                            "or one beside it; rerun with -j 1 to tell which")
+
+
+def drain(executor, window: int, work: Iterator[tuple[Plan, Job]], finished, lost_message: str) -> bool:
+    """Keep ``window`` jobs in flight on ``executor`` until ``work`` runs out, handing each outcome to
+    ``finished``. A job that the executor could not run (its worker died, the cluster lost it) fails with
+    ``lost_message`` and is not remembered. Returns True, and stops taking work, if a local process pool
+    broke; the jobs in flight then fail."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    pending: dict = {}
+    broken = False
+    while True:
+        while not broken and len(pending) < window:
+            item = next(work, None)
+            if item is None:
+                break
+            pending[executor.submit(rig_one, item[1])] = item[0]
+        if not pending:
+            return broken
+        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        for future in sorted(done, key=lambda f: pending[f].rel):
+            plan = pending.pop(future)
+            try:
+                outcome = future.result()
+            except Exception as e:
+                broken = broken or isinstance(e, BrokenProcessPool)
+                detail = " ".join(str(e).split())
+                outcome = {"status": "failed", "remember": False, "error_type": type(e).__name__,
+                           "error": f"{plan.rel}: {lost_message}" + (f" ({type(e).__name__}: {detail})"
+                                                                     if detail else "")}
+            finished(plan, outcome)
+
+
+@contextlib.contextmanager
+def _one_thread_per_worker():
+    """Start worker processes with one thread per numerical library (see the module docstring). Spawned
+    children copy this process's environment when they start, which is the only time those libraries read
+    it, so it is set here around the pool and restored afterwards."""
+    saved = {name: os.environ.get(name) for name in _THREAD_VARIABLES}
+    os.environ.update({name: "1" for name, value in saved.items() if value is None})
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+
+
+def cpu_count() -> int:
+    """CPUs this process may run on (fewer than the machine's in a container or under taskset)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def require_thumbnails() -> None:
+    """The review page's thumbnails need matplotlib: say so before any rigging (exit code 1, as for --preview)."""
+    import importlib.util
+    if importlib.util.find_spec("matplotlib") is None:
+        raise AutorigError("the review page (html) needs matplotlib for its pictures: pip install 'autorig[preview]'")
