@@ -1,0 +1,4 @@
+"""``python -m autorig.cli``: the command line, as the ``autorig`` script runs it."""
+from . import main
+
+main()

@@ -1,0 +1,187 @@
+"""What the commands share: the group that turns errors into exit codes, the common options, the axes and
+formats the options offer, and the checks that refuse an output before any slow work.
+
+Start-up must stay fast (``autorig --help`` well under 0.3 s): at module level only click, the standard library
+and ``autorig``'s own light modules.
+"""
+from __future__ import annotations
+
+import os
+import traceback
+from pathlib import Path
+
+import click
+
+from ..errors import AutorigError, OutputError
+from ..version import __version__
+
+AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
+
+
+# Must match autorig.exchange.FORMATS (a test checks); repeated here so --help need not import numpy.
+FORMATS = ["glb", "gltf", "pinocchio", "json", "usda", "usdc", "usdz", "fbx"]
+
+
+# Must match autorig.extract.AUTO (a test checks): the template name of template-free skeletons.
+AUTO_TEMPLATE = "auto"
+
+
+FORMAT_OF_SUFFIX = {".glb": "glb", ".gltf": "gltf", ".json": "json", ".usda": "usda", ".usdc": "usdc",
+                    ".usdz": "usdz", ".fbx": "fbx"}
+
+
+EXIT_INTERNAL = 70   # EX_SOFTWARE from BSD sysexits: a bug in autorig
+
+
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
+
+
+EXIT_CODES = """\b
+Exit codes:
+  0    success
+  1    general error
+  2    bad input mesh, or a command-line usage error
+  3    unknown or malformed template, or a bad --skeleton file
+  4    output cannot be written
+  5    the mesh was read but could not be rigged
+  6    --strict: the rig's confidence is below the threshold (nothing written)
+  7    batch: some assets could not be rigged (the others were; see the report)
+  70   internal error (a bug: run with --debug and report it)
+  130  interrupted (Ctrl-C)"""
+
+
+_DEBUG = "autorig.debug"  # key in click's ctx.meta, which a group shares with its subcommands
+
+
+# Shared by 'autorig rig' and 'autorig batch'. NAME_SCHEMES must match autorig.naming.NAME_SCHEMES.
+NAME_SCHEMES = ["template", "mixamo"]
+
+
+NAMES_HELP = ("Joint names in the output: the template's, or mixamo (mixamorig:Hips, mixamorig:LeftUpLeg, ...; "
+              "biped only) for animation libraries and Unity's Humanoid auto-mapping.")
+
+
+VOXELS_HELP = "--template auto: voxels along the mesh's longest side (finer finds thinner limbs)."
+
+
+MAX_SEGMENTS_HELP = "--template auto: the most bones per chain (limb), plus one for each chain hanging from it."
+
+
+# Axes of an existing rig file: the file does not record them, so no detection.
+RIG_AXES = [axis for axis in AXES if axis != "auto"]
+
+
+class DefaultCommandGroup(click.Group):
+    """A click group with a default command: when the first argument is not a subcommand name (nor one of the
+    group's own options), the whole command line goes to the default command, so ``autorig hero.obj -v`` means
+    ``autorig rig hero.obj -v``. (A mesh file literally called ``templates`` needs ``autorig rig templates``.)
+
+    It also turns exceptions into exit codes: an ``AutorigError`` prints ``autorig: error: <message>`` and exits
+    with its ``exit_code``; anything else is an internal error (exit 70; ``--debug`` adds the traceback).
+    """
+
+    def __init__(self, *args, default_command: str, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.default_command = default_command
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        own_options = {name for param in self.get_params(ctx) for name in param.opts + param.secondary_opts}
+        if args and args[0] not in self.commands and args[0] not in own_options:
+            args = [self.default_command, *args]
+        return super().parse_args(ctx, args)
+
+    def format_usage(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        formatter.write_usage(ctx.command_path, "MESH [OPTIONS]")
+        formatter.write_usage(ctx.command_path, "COMMAND [ARGS]...", prefix="   or: ")
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except (click.ClickException, click.exceptions.Exit, click.Abort):
+            raise
+        except AutorigError as e:
+            if ctx.meta.get(_DEBUG):
+                traceback.print_exc()
+            _error_line(f"autorig: error: {e}")
+            ctx.exit(e.exit_code)
+        except KeyboardInterrupt:
+            _error_line("autorig: interrupted")
+            ctx.exit(EXIT_INTERRUPTED)
+        except Exception as e:
+            if ctx.meta.get(_DEBUG):
+                traceback.print_exc()
+                _error_line(f"autorig: internal error: {type(e).__name__}: {e}")
+            else:
+                _error_line(f"autorig: internal error: {type(e).__name__}: {e} (run with --debug for details)")
+            ctx.exit(EXIT_INTERNAL)
+
+
+def _error_line(message: str) -> None:
+    """Print ``message`` on stderr as exactly one line, whatever newlines the message carries."""
+    click.echo(" ".join(message.split("\n")), err=True)
+
+
+def _set_debug(ctx: click.Context, _param, value: bool) -> None:
+    if value:
+        ctx.meta[_DEBUG] = True
+
+
+version_option = click.version_option(__version__, "--version", prog_name="autorig", message="%(prog)s %(version)s")
+
+
+def common_options(command):
+    command = click.option("--debug", is_flag=True, expose_value=False, is_eager=True, callback=_set_debug,
+                           help="Show the full traceback of an error.")(command)
+    return version_option(command)
+
+
+def parse_skeleton_scale(text: str | None) -> float | str | None:
+    """``--skeleton-scale``'s value: None (not given), "auto" or a positive number, else a usage error."""
+    if text is None:
+        return None
+    try:
+        scale = "auto" if text.lower() == "auto" else float(text)
+    except ValueError:
+        scale = None
+    if scale is None or (scale != "auto" and not (0 < scale < float("inf"))):
+        raise click.BadParameter(f"{text!r} is not a positive number or auto", param_hint="'--skeleton-scale'")
+    return scale
+
+
+def refuse_input(out: Path, mesh: Path) -> None:
+    """Never write over the input: not the file itself under another spelling or a hard link, nor (for a
+    Pinocchio folder) a folder that contains it. Checked before any slow work; ``write_rig`` checks again."""
+    real_out, real_mesh = Path(os.path.realpath(out)), Path(os.path.realpath(mesh))
+    if real_out == real_mesh or (out.exists() and os.path.samefile(out, mesh)) or real_out in real_mesh.parents:
+        raise OutputError(f"cannot write {out}: it would overwrite the input {mesh}")
+
+
+def check_output(out: Path, fmt: str) -> None:
+    """Refuse, before the slow work, outputs that ``write_rig`` would refuse after it: a missing or unwritable
+    directory, or a directory where a file should go."""
+    parent = out.parent
+    if not parent.is_dir():
+        what = "does not exist" if not parent.exists() else "is not a directory"
+        raise OutputError(f"cannot write {out}: the directory {parent} {what}")
+    if not os.access(parent, os.W_OK):
+        raise OutputError(f"cannot write {out}: permission denied in {parent}")
+    if fmt != "pinocchio" and out.is_dir():
+        raise OutputError(f"cannot write {out}: it is a directory")
+    if fmt in ("usda", "usdc", "usdz", "fbx"):
+        # usd-core or Blender missing: say what to install before the slow work.
+        from ..exchange.fbx import blender_path
+        from ..exchange.usd import require_usd
+        (blender_path if fmt == "fbx" else require_usd)()
+
+
+def require_matplotlib(what: str) -> None:
+    """Fail at once, before any slow work, if the optional matplotlib (the ``preview`` extra) is missing."""
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        raise AutorigError(f"{what} needs matplotlib: pip install 'autorig[preview]'")
+
+
+def preview_title(name: str, rig) -> str:
+    """The heading of a rig's picture: file name, template and counts."""
+    return f"{name}: {rig.template or 'rig'}, {len(rig.names)} joints, {len(rig.vertices)} vertices"

@@ -1,0 +1,235 @@
+"""``autorig MESH`` (``autorig rig MESH``): rig a mesh with a template (``autorig.pipeline.rig``), or with
+``--skeleton`` weigh the user's own skeleton (``autorig.pipeline.skin``), and write the result."""
+from __future__ import annotations
+
+import gc
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from ..quiet import quiet_libraries
+from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES,
+                     NAMES_HELP, VOXELS_HELP, check_output, common_options, parse_skeleton_scale, preview_title,
+                     refuse_input, require_matplotlib)
+
+@click.command("rig", epilog=EXIT_CODES, short_help="Rig a mesh (the default command).")
+@click.argument("mesh", metavar="MESH")
+@click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",
+              help="Built-in template name (see 'autorig templates'), a template .json file, or auto: a "
+                   "skeleton made from the mesh's own shape, for creatures no template fits.")
+@click.option("-o", "--output", metavar="PATH",
+              help="Where to write the rig. [default: beside MESH, e.g. hero.obj -> hero.rigged.glb]")
+@click.option("-f", "--format", "fmt", type=click.Choice(FORMATS),
+              help="Output format. [default: from -o's extension (.glb, .gltf, .json, .usda/.usdc/.usdz, "
+                   ".fbx; no extension: pinocchio folder), else glb]")
+@click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
+              help="The mesh's up axis, or auto to detect it.")
+@click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
+              help="The axis the character faces, or auto to detect it (glTF's +z unless the shape "
+                   "clearly says otherwise).")
+@click.option("--strict", is_flag=True,
+              help="Write nothing and exit with code 6 when the rig's confidence is below the threshold.")
+@click.option("--preview", is_flag=True,
+              help="Also draw the rig to a PNG beside the output (hero.rigged.glb -> hero.rigged.png); "
+                   "needs matplotlib (pip install 'autorig[preview]').")
+@click.option("--voxels", type=click.IntRange(min=8), default=96, show_default=True, metavar="N",
+              help=VOXELS_HELP)
+@click.option("--max-segments", type=click.IntRange(min=1), default=8, show_default=True, metavar="N",
+              help=MAX_SEGMENTS_HELP)
+@click.option("-s", "--skeleton", "skeleton_file", metavar="FILE",
+              help="Your own skeleton (.json, .glb/.gltf, .bvh): no embedding, only skin weights for its joints.")
+@click.option("--skeleton-scale", default=None, metavar="FLOAT|auto",
+              help="--skeleton: multiply its positions by FLOAT, or auto: fit it to the mesh's size. "
+                   "[default: auto for .bvh, else 1 (positions in the mesh's units)]")
+@click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
+              help=NAMES_HELP)
+@click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
+@common_options
+def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
+                strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
+                skeleton_scale: str | None, names: str, verbose: bool, quiet: bool):
+    """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
+    --skeleton, compute skin weights for your own skeleton.
+
+    On success prints one line: the mesh, template, joint and vertex counts, time and output path.
+    """
+    if verbose and quiet:
+        raise click.UsageError("--verbose and --quiet cannot be used together")
+    start = time.perf_counter()
+    from ..mesh import check_mesh_path, frame_rotation
+    from ..template import load_template
+
+    if skeleton_file is not None or skeleton_scale is not None:
+        return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, names, verbose, quiet,
+                             start)
+    mesh_path = check_mesh_path(mesh)
+    skeleton = template if template == AUTO_TEMPLATE else load_template(template)
+    if names != "template":
+        from ..naming import check_names
+        # A template without Mixamo names fails here, before any slow work.
+        check_names(["root"] if skeleton == AUTO_TEMPLATE else list(skeleton.names), names)
+    if "auto" not in (up, front):
+        frame_rotation(up, front)  # rejects up parallel to front before any slow work
+    out_path, fmt = _output_for(mesh_path, output, fmt, preview)
+
+    from ..confidence import STRICT_THRESHOLD
+    from ..errors import LowConfidenceError
+    from ..pipeline import RigOptions, rig
+    with quiet_libraries(shown=verbose):
+        _import_paused(RIG_MODULES, fmt)
+        result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels,
+                                                          max_segments=max_segments))
+        confidence = result.info["confidence"]
+        if strict and confidence < STRICT_THRESHOLD:
+            raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
+                                     f"({_weakest(result.info['confidence_parts'])}); nothing written")
+        preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
+    end = time.perf_counter()
+
+    if not quiet:
+        axes = f"up {result.info['up']}, front {result.info['front']}"
+        if result.info["axes_detected"]:
+            axes += " (detected)"
+        click.echo(f"{mesh}: {result.template}, {len(result.names)} joints, {len(result.vertices)} vertices, "
+                   f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}"
+                   + (f" (preview {preview_path})" if preview else ""))
+
+
+# What each command's pipeline imports (see _import_paused); a module missing here only costs some speed.
+RIG_MODULES = ("autorig.pipeline", "autorig.attach", "igl", "scipy.sparse.linalg", "scipy.optimize")
+
+
+SKIN_MODULES = ("autorig.pipeline", "autorig.attach", "autorig.bones", "igl", "scipy.sparse.linalg")
+
+
+def _import_paused(modules: tuple[str, ...], fmt: str) -> None:
+    """Import ``modules`` and the writer of ``fmt`` with the cyclic garbage collector paused, then freeze them.
+
+    numpy, scipy, libigl and pygltflib make hundreds of thousands of objects that live as long as the process.
+    The collector would walk them in each of the ~145 collections their imports trigger, and again when the
+    interpreter shuts down: together about 0.1 s of a 1.2 s rig (20k faces, interleaved runs of the whole
+    process). Once loaded they are moved out of its sight (``gc.freeze``); what a rig allocates afterwards is
+    collected as usual.
+    """
+    if fmt in ("glb", "gltf"):
+        modules = (*modules, "autorig.exchange.gltf")
+    if all(module in sys.modules for module in modules):
+        return
+    import importlib
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for module in modules:
+            importlib.import_module(module)
+    finally:
+        gc.freeze()
+        if was_enabled:
+            gc.enable()
+
+
+def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | None, output: str | None,
+                  fmt: str | None, preview: bool, names: str, verbose: bool, quiet: bool, start: float) -> None:
+    """``autorig MESH --skeleton FILE``: weights for the user's skeleton (``autorig.pipeline.skin``)."""
+    ctx = click.get_current_context()
+    if skeleton_file is None:
+        raise click.UsageError("--skeleton-scale applies to --skeleton")
+    # Options of the embedding mean nothing here; given explicitly, they are a mistake worth saying.
+    for param in ("template", "up", "front", "strict", "voxels", "max_segments"):
+        if ctx.get_parameter_source(param) == click.core.ParameterSource.COMMANDLINE:
+            raise click.UsageError(f"--{param.replace('_', '-')} does not apply with --skeleton (the skeleton is "
+                                   f"given, not embedded)")
+    scale = parse_skeleton_scale(skeleton_scale)
+
+    from ..exchange.skeleton import read_skeleton
+    from ..mesh import check_mesh_path
+
+    mesh_path = check_mesh_path(mesh)
+    out_path, fmt = _output_for(mesh_path, output, fmt, preview, Path(skeleton_file))
+    with quiet_libraries(shown=verbose):
+        skeleton = read_skeleton(skeleton_file)
+    if fmt == "pinocchio":
+        from ..exchange.pinocchio import unfit_skeleton
+        problem = unfit_skeleton(skeleton.parents)
+        if problem:
+            raise click.UsageError(f"--format pinocchio: {skeleton_file}: {problem}")
+
+    from ..pipeline import SkinOptions, skin
+    with quiet_libraries(shown=verbose):
+        _import_paused(SKIN_MODULES, fmt)
+        result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale))
+        preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
+    end = time.perf_counter()
+
+    if not quiet:
+        info = result.info
+        cold = sum(map(len, info["cold_bones"].values()))
+        click.echo(f"{mesh}: skeleton {skeleton_file}, {len(result.names)} joints ({info['joints_weighted']} "
+                   f"weighted, {len(info['tip_bones'])} tip bones, {cold} bones left cold), {len(result.vertices)} "
+                   f"vertices, {end - start:.2f} s -> {out_path}" + (f" (preview {preview_path})" if preview else ""))
+
+
+def _output_for(mesh_path: Path, output: str | None, fmt: str | None, preview: bool, *inputs: Path
+                ) -> tuple[Path, str]:
+    """The output path and format of a rig of ``mesh_path``; refused before any slow work if it would
+    overwrite the mesh or another input, or cannot be written, or if ``preview`` lacks matplotlib."""
+    from ..exchange import default_output_path
+
+    if output:
+        for source in (mesh_path, *inputs):
+            refuse_input(Path(output), source)
+    fmt = fmt or _format_of(output)
+    out_path = Path(output) if output else default_output_path(mesh_path, fmt)
+    check_output(out_path, fmt)
+    if preview:
+        require_matplotlib("--preview")
+    return out_path, fmt
+
+
+def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, verbose: bool) -> Path | None:
+    """Write the rig (and with ``preview`` its picture beside it, whose path is returned); with ``verbose``
+    print every stage's time, these two included, on stderr."""
+    from ..exchange import write_rig
+
+    start = time.perf_counter()
+    write_rig(result, out_path, fmt, input_path=mesh_path)
+    timings = {**result.timings, "write": time.perf_counter() - start}
+    preview_path = None
+    if preview:
+        from ..preview import render_preview
+        start = time.perf_counter()
+        preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
+        render_preview(result, preview_path, title=preview_title(mesh_path.name, result))
+        timings["preview"] = time.perf_counter() - start
+    if verbose:
+        width = max(map(len, timings))
+        for stage, seconds in timings.items():
+            click.echo(f"  {stage:<{width}}  {seconds:8.3f} s", err=True)
+    return preview_path
+
+
+def _named(result, names: str):
+    """The rig with its joints named as ``--names`` says (``autorig.naming``)."""
+    from ..naming import rename_joints
+    return rename_joints(result, names)
+
+
+def _weakest(parts: dict[str, float]) -> str:
+    """The lowest parts of a confidence, e.g. 'limbs 0.29, fit 0.41'."""
+    low = sorted(parts.items(), key=lambda kv: kv[1])[:2]
+    return ", ".join(f"{k} {v:.2f}" for k, v in low)
+
+
+def _format_of(output: str | None) -> str:
+    """The output format implied by ``-o``'s extension (glb without ``-o``)."""
+    if output is None:
+        return "glb"
+    path = Path(output)
+    if path.suffix.lower() in FORMAT_OF_SUFFIX:
+        return FORMAT_OF_SUFFIX[path.suffix.lower()]
+    if not path.suffix or path.is_dir():
+        return "pinocchio"  # Pinocchio output is a folder holding skeleton.out and attachment.out
+    raise click.UsageError(f"cannot tell the output format from {output!r}: use --format "
+                           f"({', '.join(FORMATS)}) or an extension .glb, .gltf, .json, .usda, .usdc, .usdz or .fbx")
