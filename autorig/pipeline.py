@@ -10,8 +10,8 @@
                                   x = 0 on the body's mid-plane
                -> embed           A* over placements of the template's reduced skeleton
                -> place_on_paths  every template joint along the embedded paths
-               -> refine          continuous optimisation of all joints, then the learned placement
-                                  (``autorig.placement``) of a learned template
+               -> refine          continuous optimisation of all joints
+               -> placement       a learned template's joints pulled towards it (``autorig.placement``)
                -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
                -> confidence      how much to trust the result
 
@@ -56,11 +56,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """
     from .attach import bone_heat
     from .confidence import rig_confidence
-    from .embed import embed
     from .mesh import prepare
     from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
     from .placement import learned_placement
-    from .refine import place_on_paths, refine
     from .template import AUTO, Template, load_template
 
     options = options or RigOptions()
@@ -78,11 +76,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     with stage("orientation"):
         frame = detect_orientation(prepared, field, graph, template, options.up, options.front)
         prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
-    with stage("embedding"):
-        embedding = embed(graph, template)
-    with stage("refinement"):
-        joints = learned_placement(refine(field, place_on_paths(graph, embedding, template), template), template,
-                                   np.ptp(prepared.work_vertices, axis=0), field)
+    embedding, joints = embed_and_refine(field, graph, template, stage)
+    with stage("placement"):
+        joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field)
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
@@ -116,6 +112,22 @@ def discretize(prepared, stage=None):
     with stage("sphere graph"):
         graph = sphere_graph(field, spheres)
     return field, graph
+
+
+def embed_and_refine(field, graph, template, stage=None, max_expansions: int | None = None):
+    """(embedding, joints [J, 3]) of ``template`` in a discretized mesh (``discretize``), canonical frame: the
+    discrete embedding, then every joint along its paths and refined, before the learned placement. Shared by
+    ``rig`` and the learner's calibration rigs (``autorig.learn.calibrate``), which search with a smaller budget
+    (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
+    from .embed import embed
+    from .refine import place_on_paths, refine
+
+    stage = stage or _stage_timer({})
+    with stage("embedding"):
+        embedding = embed(graph, template, max_expansions)
+    with stage("refinement"):
+        joints = refine(field, place_on_paths(graph, embedding, template), template)
+    return embedding, joints
 
 
 @dataclass

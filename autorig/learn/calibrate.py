@@ -44,22 +44,21 @@ class Sample:
 
 def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, own_frame: bool,
                extent: np.ndarray) -> Sample | None:
-    """``template`` embedded and refined on (field, graph) as ``autorig.rig`` does it; None if it does not fit."""
-    from ..embed.penalties import build_problem
-    from ..embed.search import search
+    """``template`` embedded and refined on (field, graph) by ``autorig.rig``'s own stages
+    (``pipeline.embed_and_refine``), with the learner's search budget; None if it does not fit."""
     from ..errors import RigFailedError
-    from ..refine import place_on_paths, refine
+    from ..pipeline import embed_and_refine
     from .gamma import SEARCH_BUDGET
     try:
-        embedding = search(build_problem(graph, template), max_expansions=SEARCH_BUDGET)
+        embedding, joints = embed_and_refine(field, graph, template, max_expansions=SEARCH_BUDGET)
     except RigFailedError:
         return None
-    joints = refine(field, place_on_paths(graph, embedding, template), template)
     return Sample(field, graph, embedding, joints, truth, scored, own_frame, extent)
 
 
 def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[dict, float]:
-    """(feature row, worst joint error) of a calibration rig after ``template``'s learned placement."""
+    """(feature row, worst joint error) of a calibration rig after ``template``'s learned placement (the
+    pipeline's placement stage)."""
     from ..placement import learned_placement
     joints = learned_placement(sample.refined, template, sample.extent, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
