@@ -166,7 +166,7 @@ def _material_index(names: list[str], name: str) -> int:
 def _statements_fast(lines: list[str]):
     """``_statements`` vectorised for the usual OBJ: numbers only, positive indices, every face corner written
     the same way (v, v/vt, v//vn or v/vt/vn). None for anything else, which ``_statements`` then reads."""
-    from .mesh import _fan
+    from .mesh_files import fan
 
     v, vt, vn, f = [], [], [], []
     events: list[tuple[str, str, int]] = []    # (statement, its argument, polygons before it)
@@ -210,7 +210,7 @@ def _statements_fast(lines: list[str]):
         return None
     table = np.full((corners, 3), -1, dtype=np.int64)
     table[:, :numbers.shape[1]] = numbers
-    triangles = _fan(np.arange(corners), counts)
+    triangles = fan(np.arange(corners), counts)
     polygon_of = np.repeat(np.arange(len(f)), counts - 2)
     material_names: list[str] = []
     part_names: list[str | None] = [None]

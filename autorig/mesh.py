@@ -8,22 +8,20 @@ The canonical frame, shared by every stage (and by the templates, see ``template
   moves x = 0 to the body's mid-plane, ``orient.mid_plane``, since a prop held to one side moves the box);
 * the height (the extent along up) is 1.
 
-``load_mesh`` keeps the file's vertices exactly, in file order, because the rig's skin weights are written per
-input vertex. ``prepare`` adds the canonical frame and a cleaned working copy for the geometric stages.
+``load_mesh`` (its readers in ``mesh_files``) keeps the file's vertices exactly, in file order, because the rig's
+skin weights are written per input vertex. ``prepare`` adds the canonical frame and a cleaned working copy for the geometric stages.
 
 Every problem with the input raises ``InputError`` with one line naming the file (or "mesh") and the problem.
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from .errors import AutorigError, InputError
-
-FORMATS = {".obj": "OBJ", ".off": "OFF", ".ply": "PLY", ".stl": "STL", ".glb": "glTF", ".gltf": "glTF"}
+from .mesh_files import FORMATS, as_text, load_with_trimesh, parse_obj, parse_off
 
 # A mesh whose points all lie within this fraction of its size from one plane is a 2D cut-out.
 FLAT_TOLERANCE = 1e-6
@@ -67,13 +65,13 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             data = path.read_bytes()
         except OSError as e:
             raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
-        text = _as_text(data, path, FORMATS[suffix])
-        vertices, faces = _parse_obj(text, path) if suffix == ".obj" else _parse_off(text, path)
+        text = as_text(data, path, FORMATS[suffix])
+        vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path)
     elif suffix in (".glb", ".gltf"):
         from .exchange.gltf import read_gltf_scene
         vertices, faces, _ = read_gltf_scene(path)
     else:
-        vertices, faces = _load_with_trimesh(path, suffix)
+        vertices, faces = load_with_trimesh(path, suffix)
     return check_mesh(vertices, faces, name=str(path))
 
 
@@ -89,186 +87,6 @@ def check_mesh_path(path: str | Path) -> Path:
         known = ", ".join(sorted(FORMATS))
         raise InputError(f"{path}: unknown mesh format {path.suffix or '(no extension)'!r}; autorig reads {known}")
     return path
-
-
-def _as_text(data: bytes, path: Path, fmt: str) -> str:
-    # Text formats never contain NUL bytes; images, archives and binary meshes almost always do.
-    if b"\0" in data[:65536]:
-        raise InputError(f"{path}: binary data, not a text {fmt} file")
-    # latin-1 maps every byte, so odd encodings in comments or names never stop us reading the numbers.
-    return data.decode("latin-1")
-
-
-def _bad_line(path: Path, lineno: int, problem: str) -> InputError:
-    return InputError(f"{path}: line {lineno}: {problem}")
-
-
-_OBJ_KEYWORDS = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mg", "usemtl", "mtllib"}
-
-
-def _parse_obj(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Parse OBJ ``v`` and ``f`` statements ourselves: trimesh's OBJ reader splits vertices at UV seams, drops
-    vertices past the last referenced one when there are texture coordinates, splits the file into one geometry
-    per material (each with its own copy of the vertices), and resolves negative (relative) indices against the
-    end of the file instead of the current position."""
-    text = text.replace("\r\n", "\n").replace("\r", "\n").replace("\\\n", " ").replace("\t", " ")
-    lines = text.split("\n")
-    if "\n " in text or text.startswith(" "):
-        lines = [line.lstrip() for line in lines]
-    fast = _parse_obj_fast(lines)
-    return fast if fast is not None else _parse_obj_lines(lines, path)
-
-
-def _parse_obj_fast(lines: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
-    """Vectorised parse of the usual OBJ: numeric 'v' lines and 'f' lines with positive indices.
-
-    Returns None when anything is unusual (no faces, relative indices, a malformed line); the line-by-line
-    parser then handles the file and reports problems with their line numbers.
-    """
-    v_lines = [line[2:] for line in lines if line[:2] == "v "]
-    f_lines = [line[2:] for line in lines if line[:2] == "f "]
-    if not v_lines or not f_lines:
-        return None
-    faces_text = "\n".join(f_lines)
-    if "#" in faces_text:
-        return None
-    if "/" in faces_text:
-        faces_text = re.sub(r"/\S*", "", faces_text)  # keep the vertex index of each v/vt/vn corner
-    face_lines = faces_text.split("\n")
-    try:
-        vertices = np.loadtxt(v_lines, usecols=(0, 1, 2), ndmin=2, comments="#")
-        try:  # every face with the same number of corners: one C-speed pass
-            table = np.loadtxt(face_lines, dtype=np.int64, ndmin=2)
-            index, counts = table.reshape(-1), np.full(len(table), table.shape[1])
-        except ValueError:
-            corners = [line.split() for line in face_lines]
-            counts = np.fromiter(map(len, corners), dtype=np.int64, count=len(corners))
-            index = np.array([c for face in corners for c in face], dtype=np.int64)
-    except ValueError:
-        return None
-    if counts.min() < 3 or index.min() < 1:
-        return None
-    return vertices, _fan(index - 1, counts)
-
-
-def _fan(index: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Fan-triangulate polygons: ``index`` [sum(counts)] is the polygons' corners one after another, ``counts``
-    [P] the corners of each. Returns [sum(counts - 2), 3]: polygon (a, b, c, d) -> (a, b, c), (a, c, d)."""
-    triangles = counts - 2
-    first = np.repeat(np.cumsum(counts) - counts, triangles)  # [T] the polygon's first corner
-    k = np.arange(len(first)) - np.repeat(np.cumsum(triangles) - triangles, triangles)  # [T] 0, 1, .. per polygon
-    return np.stack([index[first], index[first + k + 1], index[first + k + 2]], axis=1)
-
-
-def _parse_obj_lines(lines: list[str], path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Line-by-line OBJ parse: slower, but handles relative indices and names the line of any problem."""
-    vertices: list[tuple[float, float, float]] = []
-    faces: list[tuple[int, int, int]] = []
-    recognised = content = False
-    for lineno, line in enumerate(lines, 1):
-        parts = line.partition("#")[0].split()
-        if not parts:
-            continue
-        key = parts[0]
-        if key == "v":
-            try:
-                vertices.append((float(parts[1]), float(parts[2]), float(parts[3])))
-            except (IndexError, ValueError):
-                raise _bad_line(path, lineno, f"a vertex needs three numbers, got {line.strip()[:60]!r}") from None
-        elif key == "f":
-            try:
-                corners = [int(c.split("/", 1)[0]) for c in parts[1:]]
-            except ValueError:
-                raise _bad_line(path, lineno, f"malformed face {line.strip()[:60]!r}") from None
-            if len(corners) < 3:
-                raise _bad_line(path, lineno, f"a face needs at least three vertices, got {len(corners)}")
-            if 0 in corners:
-                raise _bad_line(path, lineno, "vertex index 0 (OBJ indices start at 1)")
-            # Negative indices count back from the most recent vertex; an index still negative after this
-            # points before the first vertex, and check_mesh reports it as out of range.
-            n = len(vertices)
-            corners = [c - 1 if c > 0 else n + c for c in corners]
-            faces.extend((corners[0], corners[k], corners[k + 1]) for k in range(1, len(corners) - 1))
-        content = True
-        recognised = recognised or key in _OBJ_KEYWORDS
-    if content and not recognised:
-        raise InputError(f"{path}: not an OBJ file (no OBJ statements such as 'v' or 'f' found)")
-    return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
-            np.array(faces, dtype=np.int64).reshape(-1, 3))
-
-
-def _parse_off(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Parse OFF (and its COFF/NOFF/STOFF variants, whose extra per-vertex columns we ignore) ourselves:
-    trimesh's OFF reader fails on files that mix triangles with other polygons."""
-    lines = [(n, l.split("#", 1)[0].split()) for n, l in enumerate(text.splitlines(), 1)]
-    lines = [(n, tokens) for n, tokens in lines if tokens]
-    if not lines:
-        raise InputError(f"{path}: empty file (no vertices)")
-    keyword = lines[0][1][0]
-    if not keyword.upper().endswith("OFF"):
-        raise InputError(f"{path}: not an OFF file (it must start with 'OFF')")
-    if not re.fullmatch(r"(ST)?C?N?OFF", keyword.upper()):
-        raise InputError(f"{path}: {keyword} files are not supported (only 3D OFF, COFF, NOFF, STOFF)")
-    # The counts may share the keyword's line ("OFF 8 6 12") or follow it.
-    if len(lines[0][1]) > 1:
-        (counts_line, counts), body = (lines[0][0], lines[0][1][1:]), lines[1:]
-    else:
-        (counts_line, counts), body = (lines[1] if len(lines) > 1 else (1, [])), lines[2:]
-    try:
-        n_vertices, n_faces = int(counts[0]), int(counts[1])
-    except (IndexError, ValueError):
-        raise _bad_line(path, counts_line, "expected the vertex and face counts") from None
-    if n_vertices < 0 or n_faces < 0 or len(body) < n_vertices + n_faces:
-        raise InputError(f"{path}: truncated: the header promises {n_vertices} vertices and {n_faces} faces "
-                         f"but the file has only {len(body)} data lines")
-    vertices = []
-    for n, tokens in body[:n_vertices]:
-        try:
-            vertices.append((float(tokens[0]), float(tokens[1]), float(tokens[2])))
-        except (IndexError, ValueError):
-            raise _bad_line(path, n, "a vertex needs three numbers") from None
-    faces = []
-    for n, tokens in body[n_vertices:n_vertices + n_faces]:
-        try:
-            k = int(tokens[0])
-            corners = [int(c) for c in tokens[1:1 + k]]
-        except ValueError:
-            raise _bad_line(path, n, "malformed face") from None
-        if k < 3 or len(corners) < k:
-            raise _bad_line(path, n, "a face needs a vertex count of at least 3 and that many indices")
-        faces.extend((corners[0], corners[i], corners[i + 1]) for i in range(1, k - 1))
-    return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
-            np.array(faces, dtype=np.int64).reshape(-1, 3))
-
-
-def _load_with_trimesh(path: Path, suffix: str) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    fmt = FORMATS[suffix]
-    try:
-        # process=False keeps the file's vertices as they are (no merging, no reordering); materials would
-        # only cost time (and decode images) for data we never use.
-        scene = trimesh.load_scene(str(path), file_type=suffix[1:], process=False, skip_materials=True)
-    except Exception as e:  # trimesh's readers raise anything from KeyError to struct.error on bad data
-        message = " ".join(str(e).split())[:150] or type(e).__name__
-        raise InputError(f"{path}: cannot read as {fmt} ({message})") from None
-    vertex_blocks, face_blocks, offset, points_only = [], [], 0, False
-    for node in sorted(scene.graph.nodes_geometry):
-        transform, geometry_name = scene.graph[node]
-        geometry = scene.geometry[geometry_name]
-        if not isinstance(geometry, trimesh.Trimesh):
-            points_only = points_only or isinstance(geometry, trimesh.PointCloud)
-            continue
-        vertices = np.asarray(geometry.vertices, dtype=np.float64)
-        vertices = vertices @ transform[:3, :3].T + transform[:3, 3]
-        vertex_blocks.append(vertices)
-        face_blocks.append(np.asarray(geometry.faces, dtype=np.int64).reshape(-1, 3) + offset)
-        offset += len(vertices)
-    if not vertex_blocks and points_only:
-        raise InputError(f"{path}: a point cloud (no faces); autorig needs a surface mesh")
-    if not vertex_blocks:
-        raise InputError(f"{path}: no mesh found (empty, or not a valid {fmt} file)")
-    return np.concatenate(vertex_blocks), np.concatenate(face_blocks)
 
 
 # -------------------------------------------------------------------------------------------------- validation

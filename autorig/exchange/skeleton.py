@@ -181,9 +181,9 @@ def _from_gltf(data: bytes, path: Path) -> Skeleton:
 
 
 def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
-    from .gltf import _buffer_data, _parse, _read_accessor, _world_matrices, joint_parents, node_parents
+    from .gltf_parts import buffer_data, joint_parents, node_parents, parse_document, read_accessor, world_matrices
 
-    doc = _parse(data)
+    doc = parse_document(data)
     nodes = doc.nodes or []
     if not doc.skins:
         raise SkeletonError(f"skeleton {path}: the glTF has no skin (no joints to weight)")
@@ -200,10 +200,10 @@ def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
         twice = next(c for c in children if children.count(c) > 1)
         raise SkeletonError(f"skeleton {path}: node {twice} has two parents")
     node_parent = node_parents(nodes)
-    world = _world_matrices(nodes, node_parent)   # raises on a cyclic hierarchy
+    world = world_matrices(nodes, node_parent)   # raises on a cyclic hierarchy
     if skin.inverseBindMatrices is not None:
-        buffers = [_buffer_data(doc, b, path) for b in doc.buffers]
-        inverse_bind = _read_accessor(doc, buffers, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
+        buffers = [buffer_data(doc, b, path) for b in doc.buffers]
+        inverse_bind = read_accessor(doc, buffers, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
         if len(inverse_bind) != len(skin_joints):
             raise SkeletonError(f"skeleton {path}: {len(inverse_bind)} inverse bind matrices for "
                                 f"{len(skin_joints)} joints")

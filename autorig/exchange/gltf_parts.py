@@ -1,0 +1,188 @@
+"""The parts of a glTF document that every reader needs: the file's JSON and binary chunk, its buffers and
+accessors as arrays, and its node hierarchy with each node's world transform. Shared by the rig reader
+(``gltf``), the look (``gltf_look``) and the skeleton reader (``skeleton``)."""
+from __future__ import annotations
+
+import base64
+import json
+import struct
+from pathlib import Path
+from urllib.parse import unquote
+
+import numpy as np
+import pygltflib
+from pygltflib import GLTF2, Buffer, Node
+
+from ..errors import InputError
+
+_COMPONENT_DTYPES = {
+    pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
+    pygltflib.SHORT: np.int16, pygltflib.UNSIGNED_SHORT: np.uint16,
+    pygltflib.UNSIGNED_INT: np.uint32, pygltflib.FLOAT: np.float32,
+}
+
+
+_TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def file_bytes(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(f"cannot read {path}: {e.strerror or e}") from None
+
+
+def parse_document(data: bytes) -> "_Object":
+    """A .glb's or .gltf's JSON as attributes, as pygltflib's classes name them (``doc.nodes[0].mesh``; None
+    where absent), with ``binary_blob()`` and ``to_json()``. pygltflib decodes every accessor through
+    dataclasses-json, about 2.5 ms each: half a second for a skinned, animated character, more than the rest
+    of reading it. Readers only need the JSON."""
+    blob = None
+    if data[:4] == b"glTF":
+        if len(data) < 20:
+            raise ValueError("truncated GLB header")
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:  # "JSON"
+            raise ValueError("no JSON chunk")
+        text = data[20:20 + length].decode("utf-8")
+        start = 20 + length
+        if start + 8 <= len(data):
+            size, kind = struct.unpack_from("<II", data, start)
+            if kind == 0x004E4942:  # "BIN\0"
+                blob = data[start + 8:start + 8 + size]
+    else:
+        text = data.decode("utf-8")
+    document = json.loads(text)
+    if not isinstance(document, dict):
+        raise ValueError("the JSON is not an object")
+    doc = _objects(document)
+    doc.binary_blob = lambda: blob
+    doc.to_json = lambda: text
+    return doc
+
+
+class _Object:
+    """A JSON object read as attributes; an absent one is None."""
+
+    def __init__(self, fields: dict):
+        self.__dict__.update(fields)
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return None
+
+
+def _objects(value, key: str = ""):
+    # extras and extensions stay plain JSON: they are copied, not read.
+    if isinstance(value, dict) and key not in ("extras", "extensions"):
+        return _Object({k: _objects(v, k) for k, v in value.items()})
+    if isinstance(value, list):
+        return [_objects(v) for v in value]
+    return value
+
+
+def node_parents(nodes: list[Node]) -> np.ndarray:
+    """[N] the parent node of each of a glTF's nodes, -1 for a scene root."""
+    node_parent = np.full(len(nodes), -1)
+    for i, node in enumerate(nodes):
+        for c in node.children or []:
+            node_parent[c] = i
+    return node_parent
+
+
+def joint_parents(node_parent: np.ndarray, skin_joints: list[int]) -> np.ndarray:
+    """[J] each skin joint's parent joint (an index into ``skin_joints``): its nearest ancestor node that is
+    also a joint of the skin, -1 if none (non-joint nodes in between, an armature node above, are skipped)."""
+    as_joint = {node: j for j, node in enumerate(skin_joints)}
+    parents = np.full(len(skin_joints), -1)
+    for j, node in enumerate(skin_joints):
+        up = node_parent[node]
+        while up >= 0 and up not in as_joint:
+            up = node_parent[up]
+        parents[j] = as_joint.get(up, -1)
+    return parents
+
+
+def buffer_data(doc: GLTF2, buffer: Buffer, path: Path) -> bytes:
+    if buffer.uri is None:
+        blob = doc.binary_blob()
+        if blob is None:
+            raise ValueError("a buffer has no uri and there is no GLB binary chunk")
+        return bytes(blob)
+    if buffer.uri.startswith("data:"):
+        return base64.b64decode(buffer.uri.split(",", 1)[1])
+    return (path.parent / unquote(buffer.uri)).read_bytes()
+
+
+def read_accessor(doc: GLTF2, buffers: list[bytes], index: int) -> np.ndarray:
+    """Accessor ``index`` as a [count, components] array: float64 if float or normalized, else int64."""
+    accessor = doc.accessors[index]
+    dtype = np.dtype(_COMPONENT_DTYPES[accessor.componentType]).newbyteorder("<")
+    width = _TYPE_SIZES[accessor.type]
+    if accessor.bufferView is None:
+        values = np.zeros((accessor.count, width), dtype=dtype)
+    else:
+        values = _view_array(doc, buffers, accessor.bufferView, accessor.byteOffset or 0, dtype,
+                             accessor.count, width)
+    if accessor.sparse is not None:
+        sparse = accessor.sparse
+        where = _view_array(doc, buffers, sparse.indices.bufferView, sparse.indices.byteOffset or 0,
+                            np.dtype(_COMPONENT_DTYPES[sparse.indices.componentType]).newbyteorder("<"),
+                            sparse.count, 1)[:, 0]
+        values[where.astype(np.int64)] = _view_array(doc, buffers, sparse.values.bufferView,
+                                                     sparse.values.byteOffset or 0, dtype, sparse.count, width)
+    if dtype.kind == "f":
+        return values.astype(np.float64)
+    if accessor.normalized:
+        # glTF's dequantisation: c / max for unsigned, max(c / max, -1) for signed components.
+        return np.maximum(values / np.iinfo(dtype).max, -1.0)
+    return values.astype(np.int64)
+
+
+def _view_array(doc: GLTF2, buffers: list[bytes], view_index: int, offset: int, dtype: np.dtype, count: int,
+                width: int) -> np.ndarray:
+    view = doc.bufferViews[view_index]
+    stride = view.byteStride or dtype.itemsize * width
+    start = (view.byteOffset or 0) + offset
+    if count and start + (count - 1) * stride + dtype.itemsize * width > (view.byteOffset or 0) + view.byteLength:
+        raise ValueError(f"an accessor reads past the end of buffer view {view_index}")
+    return np.ndarray((count, width), dtype=dtype, buffer=buffers[view.buffer], offset=start,
+                      strides=(stride, dtype.itemsize)).copy()
+
+
+def _local_matrix(node: Node) -> np.ndarray:
+    if node.matrix is not None:
+        return np.asarray(node.matrix, dtype=np.float64).reshape(4, 4).T
+    m = np.eye(4)
+    if node.rotation is not None:
+        x, y, z, w = node.rotation
+        m[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    if node.scale is not None:
+        m[:3, :3] *= np.asarray(node.scale, dtype=np.float64)
+    if node.translation is not None:
+        m[:3, 3] = node.translation
+    return m
+
+
+def world_matrices(nodes: list[Node], node_parent: np.ndarray) -> np.ndarray:
+    """World transform [N, 4, 4] of every node, given each node's parent index (-1 at a root).
+
+    Raises ``ValueError`` if the hierarchy has a cycle, which also keeps later walks up it finite.
+    """
+    world = np.zeros((len(nodes), 4, 4))
+    done = np.zeros(len(nodes), dtype=bool)
+    for start in range(len(nodes)):
+        chain, n = [], start
+        while n >= 0 and not done[n]:
+            if len(chain) > len(nodes):
+                raise ValueError("the node hierarchy has a cycle")
+            chain.append(n)
+            n = node_parent[n]
+        for n in reversed(chain):
+            parent = node_parent[n]
+            world[n] = _local_matrix(nodes[n]) if parent < 0 else world[parent] @ _local_matrix(nodes[n])
+            done[n] = True
+    return world
