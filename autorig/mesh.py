@@ -9,7 +9,8 @@ The canonical frame, shared by every stage (and by the templates, see ``template
 * the height (the extent along up) is 1.
 
 ``load_mesh`` (its readers in ``mesh_files``) keeps the file's vertices exactly, in file order, because the rig's
-skin weights are written per input vertex. ``prepare`` adds the canonical frame and a cleaned working copy for the geometric stages.
+skin weights are written per input vertex. ``prepare`` adds the canonical frame and a cleaned working copy for the
+geometric stages.
 
 Every problem with the input raises ``InputError`` with one line naming the file (or "mesh") and the problem.
 """

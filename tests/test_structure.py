@@ -67,6 +67,6 @@ def test_the_readme_map_names_every_package_and_module():
     section = README.read_text(encoding="utf-8").split("## How it is built", 1)[1].split("\n## ", 1)[0]
     listed = re.findall(r"^([a-z_]+(?:/|\.py)) ", section, flags=re.M)
     present = sorted(f"{p.name}/" if p.is_dir() else p.name for p in PACKAGE.iterdir()
-                     if (p.is_dir() and (p / "__init__.py").exists()) or (p.suffix == ".py" and p.name != "__init__.py"))
+                     if (p / "__init__.py").exists() or (p.suffix == ".py" and p.name != "__init__.py"))
     assert len(listed) == len(set(listed))
     assert sorted(listed) == present

@@ -208,7 +208,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     def finished(plan: Plan, outcome: dict) -> None:
         nonlocal saved
         results[plan.rel] = result = store_outcome(plan, outcome, input_dir, output_dir, fmt, manifest,
-                                                    thumbnails=html is not None)
+                                                   thumbnails=html is not None)
         if on_result:
             on_result(result)
         if time.monotonic() - saved > MANIFEST_INTERVAL:
@@ -252,5 +252,6 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
 
 
 def _write_review(result: BatchResult, path: str | os.PathLike) -> None:
+    """The review page, its module loaded only for a batch that asks for one."""
     from .review import write_review
     write_review(result, path)

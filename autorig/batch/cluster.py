@@ -11,6 +11,7 @@ from .worker import Job, drain
 if TYPE_CHECKING:
     from .plan import Plan
 
+
 class ClusterError(AutorigError):
     """Cluster mode cannot run: dask.distributed missing, the scheduler unreachable, or workers unfit."""
     exit_code = 1

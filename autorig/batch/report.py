@@ -8,6 +8,7 @@ from dataclasses import asdict
 from ..version import __version__
 from .result import AssetResult, BatchResult
 
+
 def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
     """Write ``result`` as JSON, atomically::
 

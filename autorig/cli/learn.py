@@ -9,6 +9,7 @@ import click
 from ..errors import OutputError
 from .common import EXIT_CODES, common_options
 
+
 @click.command("learn", epilog=EXIT_CODES, short_help="Learn a template from rigged characters.")
 @click.argument("rigs", nargs=-1, required=True, metavar="RIGS...")
 @click.option("-o", "--output", required=True, metavar="TEMPLATE.json", help="Where to write the template.")

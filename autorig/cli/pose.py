@@ -8,6 +8,7 @@ import click
 from ..quiet import quiet_libraries
 from .common import EXIT_CODES, RIG_AXES, check_output, common_options, refuse_input
 
+
 @click.command("pose", epilog=EXIT_CODES, short_help="Move a rig file with a BVH motion.")
 @click.argument("rig_file", metavar="RIG")
 @click.option("-m", "--motion", required=True, metavar="BVH", help="The motion to retarget (.bvh).")

@@ -9,6 +9,7 @@ from ..quiet import quiet_libraries
 from .common import (EXIT_CODES, RIG_AXES, check_output, common_options, preview_title, refuse_input,
                      require_matplotlib)
 
+
 @click.command("preview", epilog=EXIT_CODES, short_help="Draw a rig file to a PNG.")
 @click.argument("rig_file", metavar="RIG")
 @click.option("-o", "--output", metavar="PATH",

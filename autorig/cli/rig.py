@@ -14,6 +14,7 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS,
                      NAMES_HELP, VOXELS_HELP, check_output, common_options, parse_skeleton_scale, preview_title,
                      refuse_input, require_matplotlib)
 
+
 @click.command("rig", epilog=EXIT_CODES, short_help="Rig a mesh (the default command).")
 @click.argument("mesh", metavar="MESH")
 @click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",

@@ -5,6 +5,7 @@ import click
 
 from .common import AUTO_TEMPLATE, common_options
 
+
 @click.command("templates", short_help="List the built-in templates.")
 @common_options
 def templates_command():
