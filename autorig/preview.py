@@ -23,7 +23,7 @@ import numpy as np
 from .mesh import frame_rotation
 from .result import Rig
 
-__all__ = ["render_preview", "render_thumbnails"]
+__all__ = ["render_preview"]
 
 _VIEW_HEIGHT = 7.0   # inches (at 100 dpi) of each view's drawing area
 _MAX_VIEWS_WIDTH = 16.0  # inches for both views together
@@ -32,10 +32,6 @@ _LEGEND_ROW = 0.24   # inches per entry
 _DPI = 100
 _LABEL_SIZE = 7.5  # points
 
-
-# A thumbnail 160 pixels high shows no more than this: denser meshes are simplified before drawing (drawing
-# 120k faces took 6 s a thumbnail, 4,000 take about 0.1 s, and the decimation 0.3 s).
-_THUMBNAIL_FACES = 4000
 
 def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, up: str | None = None,
                    front: str | None = None) -> dict[str, tuple[int, int, int, int]]:
@@ -58,10 +54,10 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     joints = np.asarray(rig.joints, dtype=np.float64) @ frame.T
     faces = np.asarray(rig.faces, dtype=np.int64)
     weights = np.asarray(rig.weights, dtype=np.float64)
-    colours = _joint_colours(len(rig.names))
+    colours = joint_colours(len(rig.names))
     face_joint = np.argmax(weights[faces].sum(axis=1), axis=1)   # [F] the joint with most weight on the face
 
-    views = _choose_views(vertices)
+    views = choose_views(vertices)
     # One scale for both views, so that the taller one (the top view of a flat shape) fills the height.
     tallest = max(max(float(np.ptp(vertices @ y)) for _, _, _, y, _ in views), 1e-12)
     natural = [_VIEW_HEIGHT * 1.15 * float(np.ptp(vertices @ x)) / tallest for _, _, x, _, _ in views]
@@ -100,60 +96,6 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     return boxes
 
 
-def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front: str | None = None,
-                      quality: int = 70) -> dict[str, bytes]:
-    """Small pictures of ``rig`` for a page of many rigs (``autorig batch --html``): {view: WebP bytes} for the
-    two views ``render_preview`` draws ("front" and "side"; "top" and one of those for a flat shape), each
-    ``height`` pixels high and as wide as the view needs (at most twice as wide),
-    the same views as ``render_preview`` without the title, labels and legend, which would not be legible.
-
-    up, front  as for ``render_preview``
-    quality    WebP quality (0-100): 70 keeps the bones and joints sharp at a few kilobytes a view
-    Raises ``ImportError`` without matplotlib.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    frame = frame_rotation(up or rig.info.get("up", "y"), front or rig.info.get("front", "z"))
-    vertices = np.asarray(rig.vertices, dtype=np.float64) @ frame.T
-    joints = np.asarray(rig.joints, dtype=np.float64) @ frame.T
-    faces = np.asarray(rig.faces, dtype=np.int64)
-    colours = _joint_colours(len(rig.names))
-    face_joint = np.argmax(np.asarray(rig.weights)[faces].sum(axis=1), axis=1)
-    if len(faces) > _THUMBNAIL_FACES:
-        vertices, faces, face_joint = _simplified(vertices, faces, face_joint, _THUMBNAIL_FACES)
-    pictures = {}
-    for name, _, screen_x, screen_y, toward_camera in _choose_views(vertices):
-        span = max(float(np.ptp(vertices @ screen_y)), 1e-12)
-        aspect = min(max(1.08 * float(np.ptp(vertices @ screen_x)) / span, 0.3), 2.0)
-        figure = Figure(figsize=(height * aspect / _DPI, height / _DPI), dpi=_DPI)
-        FigureCanvasAgg(figure)
-        ax = figure.add_axes((0, 0, 1, 1))
-        _draw_view(ax, vertices, faces, face_joint, colours, joints, rig, screen_x, toward_camera, screen_y,
-                   thumbnail=True)
-        ax.axis("off")
-        buffer = BytesIO()
-        figure.savefig(buffer, format="webp", dpi=_DPI, pil_kwargs={"quality": quality, "method": 4})
-        pictures[name] = buffer.getvalue()
-    return pictures
-
-
-def _simplified(vertices: np.ndarray, faces: np.ndarray, face_joint: np.ndarray, count: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The mesh (vertices [V, 3], faces [F, 3]) simplified to about ``count`` faces by quadric decimation
-    (fast-simplification, as the pipeline's coarse mesh), each new face taking the joint (``face_joint`` [F]) of
-    the original face whose centre is nearest its own: (vertices [V', 3], faces [F', 3], face_joint [F'])."""
-    import fast_simplification
-    from scipy.spatial import cKDTree
-
-    coarse_vertices, coarse_faces = fast_simplification.simplify(vertices, faces.astype(np.int32),
-                                                                 target_count=count)
-    coarse_vertices = np.asarray(coarse_vertices, dtype=np.float64)
-    coarse_faces = np.asarray(coarse_faces, dtype=np.int64)
-    _, nearest = cKDTree(vertices[faces].mean(axis=1)).query(coarse_vertices[coarse_faces].mean(axis=1))
-    return coarse_vertices, coarse_faces, face_joint[nearest]
-
-
 # Each view: (name, heading, screen x axis, screen y axis, axis pointing at the camera) in the character's
 # frame (left, up, front).
 _FRONT = ("front", "front", np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0]))
@@ -162,7 +104,7 @@ _TOP = ("top", "top (front up)", np.array([-1.0, 0, 0]), np.array([0, 0, 1.0]), 
 _FLAT = 0.6   # a shape lower than this share of its narrower horizontal extent is flat: seen from above
 
 
-def _choose_views(vertices: np.ndarray) -> list[tuple]:
+def choose_views(vertices: np.ndarray) -> list[tuple]:
     """The two views to draw of vertices [V, 3] (character's frame): front and side; for a flat shape (a
     spider, a star lying down), whose limbs would overlap in both, the top view and the wider of the two."""
     left, up, front = np.ptp(vertices, axis=0)
@@ -172,9 +114,8 @@ def _choose_views(vertices: np.ndarray) -> list[tuple]:
 
 
 def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, screen_x, toward_camera,
-               up=np.array([0.0, 1.0, 0.0]), thumbnail: bool = False) -> None:
-    """One orthographic view: shaded faces far to near, then bones, joints and labels over them (a
-    ``thumbnail`` has thinner bones, smaller dots and no labels).
+               up=np.array([0.0, 1.0, 0.0])) -> None:
+    """One orthographic view: shaded faces far to near, then bones, joints and labels over them.
 
     vertices [V, 3], joints [J, 3]  in the character's frame (left, up, front)
     faces [F, 3], face_joint [F]    triangles and the joint whose colour (colours [J, 3]) each one takes
@@ -193,22 +134,15 @@ def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, scree
     order = np.argsort(corners.mean(axis=1) @ toward_camera, kind="stable")
     face_colours = colours[face_joint[order]] * shade[order, None]
     ax.add_collection(PolyCollection(screen[faces[order]], facecolors=face_colours, edgecolors="none",
-                                     antialiaseds=False, rasterized=True), autolim=not thumbnail)
-    if thumbnail:
-        # A thumbnail's limits come from the vertices: the same box, without measuring every polygon's path (a
-        # third of a thumbnail's drawing time).
-        ax.update_datalim(screen[np.unique(faces)])
+                                     antialiaseds=False, rasterized=True))
 
     joint_screen = np.stack([joints @ screen_x, joints @ up], axis=1)
     bones = [(joint_screen[p], joint_screen[j]) for p, j in rig.bones]
-    small = 0.45 if thumbnail else 1.0
-    halo = [patheffects.withStroke(linewidth=4.5 * small, foreground="white")]
-    ax.add_collection(LineCollection(bones, colors="black", linewidths=2.0 * small, path_effects=halo, zorder=3))
+    halo = [patheffects.withStroke(linewidth=4.5, foreground="white")]
+    ax.add_collection(LineCollection(bones, colors="black", linewidths=2.0, path_effects=halo, zorder=3))
     tips = np.array([name.endswith("_end") for name in rig.names])
-    ax.scatter(*joint_screen[~tips].T, s=36 * small ** 2, c="red", edgecolors="black", linewidths=0.8 * small,
-               zorder=4)
-    ax.scatter(*joint_screen[tips].T, s=14 * small ** 2, c="0.6", edgecolors="black", linewidths=0.6 * small,
-               zorder=4)
+    ax.scatter(*joint_screen[~tips].T, s=36, c="red", edgecolors="black", linewidths=0.8, zorder=4)
+    ax.scatter(*joint_screen[tips].T, s=14, c="0.6", edgecolors="black", linewidths=0.6, zorder=4)
 
     ax.set_aspect("equal")
     ax.autoscale_view()
@@ -220,8 +154,6 @@ def _draw_view(ax, vertices, faces, face_joint, colours, joints, rig: Rig, scree
     ax.set_yticks([])
     for spine in ax.spines.values():
         spine.set_color("0.85")
-    if thumbnail:
-        return
     ax.apply_aspect()  # fixes the axes box now, so data -> pixel positions below are final
     _label_joints(ax, joint_screen, joints @ toward_camera, rig.names, tips, side=toward_camera[0] != 0)
 
@@ -266,13 +198,19 @@ def _draw_legend(ax, names: list[str], colours: np.ndarray, shown: np.ndarray, c
               frameon=False, ncols=columns)
 
 
-def _joint_colours(count: int) -> np.ndarray:
-    """[count, 3] RGB colours, neighbouring indices far apart in hue and lightness."""
-    from matplotlib import colormaps
+# matplotlib's tab20 (strong hues, then their pale versions), tab20b and tab20c: written out so that drawing a
+# thumbnail does not import matplotlib (~0.3 s a process) for its colour tables.
+_TAB20 = ("1f77b4 aec7e8 ff7f0e ffbb78 2ca02c 98df8a d62728 ff9896 9467bd c5b0d5 8c564b c49c94 e377c2 f7b6d2 7f7f7f "
+          "c7c7c7 bcbd22 dbdb8d 17becf 9edae5").split()
+_TAB20B = ("393b79 5254a3 6b6ecf 9c9ede 637939 8ca252 b5cf6b cedb9c 8c6d31 bd9e39 e7ba52 e7cb94 843c39 ad494a d6616b "
+           "e7969c 7b4173 a55194 ce6dbd de9ed6").split()
+_TAB20C = ("3182bd 6baed6 9ecae1 c6dbef e6550d fd8d3c fdae6b fdd0a2 31a354 74c476 a1d99b c7e9c0 756bb1 9e9ac8 bcbddc "
+           "dadaeb 636363 969696 bdbdbd d9d9d9").split()
+# The first ten joints (the trunk and one side of a skeleton, parents first) never share a hue.
+_PALETTE = np.array([[int(h[i:i + 2], 16) for i in (0, 2, 4)]
+                     for h in _TAB20[0::2] + _TAB20[1::2] + _TAB20B + _TAB20C]) / 255.0
 
-    # tab20 pairs a strong and a pale version of each hue: strong ones first, so the first ten joints (the
-    # trunk and one side of a skeleton, parents first) never share a hue.
-    tab20 = np.asarray(colormaps["tab20"].colors)
-    palette = np.concatenate([tab20[0::2], tab20[1::2], np.asarray(colormaps["tab20b"].colors),
-                              np.asarray(colormaps["tab20c"].colors)])
-    return palette[np.arange(count) % len(palette)]
+
+def joint_colours(count: int) -> np.ndarray:
+    """[count, 3] RGB colours in 0-1, neighbouring indices far apart in hue and lightness."""
+    return _PALETTE[np.arange(count) % len(_PALETTE)]

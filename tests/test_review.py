@@ -22,8 +22,8 @@ from autorig import samples
 from autorig.batch import EXIT_SOME_FAILED, THUMBNAILS_FOLDER
 from autorig.cli import cli
 
-pytest.importorskip("matplotlib", reason="the preview extra (matplotlib) is not installed")
-from PIL import Image  # noqa: E402  (Pillow comes with matplotlib)
+pytest.importorskip("PIL", reason="the preview extra (Pillow) is not installed")
+from PIL import Image  # noqa: E402
 
 AXES = ["--up", "y", "--front", "z"]
 TUBE = "odd & <tube>.obj"

@@ -87,7 +87,7 @@ Reports
     ``report`` (JSON), ``junit`` (JUnit XML) and ``html`` (a page to review the batch by eye:
     ``autorig.batch.review``) are written at the end, atomically; each may lie inside ``output_dir``, in
     folders that do not exist yet. With ``html`` the workers also draw each rig's front and side thumbnails
-    (``autorig.preview.render_thumbnails``, its ``thumbnails`` stage time) into
+    (``autorig.thumbnails.render_thumbnails``, its ``thumbnails`` stage time) into
     ``output_dir/.autorig-thumbnails/``, and the manifest keeps them, with the stage times and the
     confidence's parts, so that a resumed run's page still shows the skipped assets in full.
 
@@ -148,14 +148,14 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                        ``output_dir`` may lie in folders that do not exist yet
     html               where to write the review page (``autorig.batch.review``), if anywhere; default the
                        ``html`` of ``input_dir``'s own config file. The workers then draw each rig's thumbnails
-                       (needs matplotlib), kept in ``output_dir/.autorig-thumbnails``
+                       (needs Pillow), kept in ``output_dir/.autorig-thumbnails``
     names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (mixamo: biped only;
                        an asset with other joints fails)
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 
     Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4),
-    ``ClusterError`` (1) or ``AutorigError`` (1: ``html`` without matplotlib) for problems that stop the whole
+    ``ClusterError`` (1) or ``AutorigError`` (1: ``html`` without Pillow) for problems that stop the whole
     batch, all before any rigging; a failing asset only gets status ``failed``.
     """
     from ..exchange import FORMATS

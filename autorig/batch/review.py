@@ -138,7 +138,7 @@ def _no_picture(asset: AssetResult) -> str:
     if asset.failed:
         return "no rig"
     if "thumbnails" in (asset.timings or asset.previous_timings):
-        return "no picture: its worker could not draw one (matplotlib missing there?)"
+        return "no picture: its worker could not draw one (Pillow missing there?)"
     return "no picture: rigged by a run without html (--force draws it)"
 
 

@@ -91,10 +91,10 @@ def rig_one(job: Job) -> dict:
 
 
 def _thumbnails_of(rig) -> dict[str, bytes]:
-    """{view: WebP bytes} of ``rig``, or {} if they cannot be drawn (a cluster worker without matplotlib, or a
+    """{view: WebP bytes} of ``rig``, or {} if they cannot be drawn (a cluster worker without Pillow, or a
     bug in the drawing): the rig itself is fine, so the asset is not failed for it; its card says so."""
     try:
-        from ..preview import render_thumbnails
+        from ..thumbnails import render_thumbnails
         return render_thumbnails(rig)
     except Exception:
         return {}
@@ -169,7 +169,7 @@ def cpu_count() -> int:
 
 
 def require_thumbnails() -> None:
-    """The review page's thumbnails need matplotlib: say so before any rigging (exit code 1, as for --preview)."""
+    """The review page's thumbnails need Pillow: say so before any rigging (exit code 1, as for --preview)."""
     import importlib.util
-    if importlib.util.find_spec("matplotlib") is None:
-        raise AutorigError("the review page (html) needs matplotlib for its pictures: pip install 'autorig[preview]'")
+    if importlib.util.find_spec("PIL") is None:
+        raise AutorigError("the review page (html) needs Pillow for its pictures: pip install 'autorig[preview]'")
