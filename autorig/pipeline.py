@@ -12,6 +12,8 @@
                -> place_on_paths  every template joint along the embedded paths
                -> refine          continuous optimisation of all joints
                -> placement       a learned template's joints pulled towards it (``autorig.placement``)
+               -> convention      the joints moved to where the chosen convention's artists put them
+                                  (``autorig.convention``)
                -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
                -> confidence      how much to trust the result
 
@@ -39,11 +41,14 @@ class RigOptions:
     """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z), or "auto"
     to detect it (see ``autorig.orient``).
     voxels, max_segments: template "auto" only: grid cells along the longest side of the mesh, and the most
-    bones per extracted chain, plus one for each chain hanging from it (see ``autorig.extract``)."""
+    bones per extracted chain, plus one for each chain hanging from it (see ``autorig.extract``).
+    convention: where the joints go by whose habit, of the template's conventions (``autorig.convention``);
+    None for the template's default."""
     up: str = "auto"
     front: str = "auto"
     voxels: int = 96
     max_segments: int = 8
+    convention: str | None = None
 
 
 def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
@@ -56,6 +61,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """
     from .attach import bone_heat
     from .confidence import rig_confidence
+    from .convention import convention_named, convention_shift, in_convention
     from .mesh import prepare
     from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
     from .placement import learned_placement
@@ -70,6 +76,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         template = template if isinstance(template, Template) or template == AUTO else load_template(template)
     if template == AUTO:
         return _rig_without_template(vertices, faces, name, look, options, stage, timings)
+    convention, _ = convention_named(template, options.convention)   # an unknown name fails before the work
     with stage("prepare"):
         prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name, checked=True)
     field, graph = discretize(prepared, stage)
@@ -78,7 +85,10 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
     embedding, joints = embed_and_refine(field, graph, template, stage)
     with stage("placement"):
-        joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field)
+        joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field,
+                                   shift=convention_shift(template, convention))
+    with stage("convention"):
+        joints = in_convention(joints, template, convention, field)
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
@@ -94,7 +104,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
-              "search_expansions": int(embedding.expanded)})
+              "search_expansions": int(embedding.expanded),
+              **({"convention": convention} if convention else {})})
 
 
 def discretize(prepared, stage=None):

@@ -42,21 +42,25 @@ def body_box(extent, mean_extent) -> np.ndarray:
     return np.clip(np.asarray(extent, float), mean / MAX_STRETCH, mean * MAX_STRETCH)
 
 
-def stretched_template(extent: np.ndarray, template: Template, mean_extent) -> np.ndarray:
-    """[J, 3] the template's joints scaled per axis by the mesh's box ``extent`` [3] (template frame) against
-    the examples' ``mean_extent`` [3]."""
-    return template.positions * (body_box(extent, mean_extent) / np.asarray(mean_extent, float))
+def stretched_template(extent: np.ndarray, template: Template, mean_extent, shift=None) -> np.ndarray:
+    """[J, 3] the template's joints, moved by a convention's ``shift`` [J, 3] (where its source's examples
+    put them on average, against the template's mean of all; None: not moved), scaled per axis by the mesh's
+    box ``extent`` [3] (template frame) against the examples' ``mean_extent`` [3]."""
+    positions = template.positions if shift is None else template.positions + np.asarray(shift, float)
+    return positions * (body_box(extent, mean_extent) / np.asarray(mean_extent, float))
 
 
-def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray, field=None) -> np.ndarray:
-    """[J, 3] ``joints`` (canonical frame) pulled by the template's learned ``placement`` (unchanged without);
+def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray, field=None,
+                      shift=None) -> np.ndarray:
+    """[J, 3] ``joints`` (canonical frame) pulled by the template's learned ``placement`` (unchanged without)
+    towards the template moved by a convention's ``shift`` [J, 3] (``convention.convention_shift``);
     ``extent`` [3] is the mesh's bounding box in the same frame. With the distance ``field``, a joint the pull
     would take out of the mesh stays where it was: the template's rest pose is not the character's (arms
     held out where the examples' hang), and a limb's joints belong inside the limb."""
     if not template.placement:
         return joints
     alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
-    placed = joints + alpha * (stretched_template(extent, template, template.placement["extent"]) - joints)
+    placed = joints + alpha * (stretched_template(extent, template, template.placement["extent"], shift) - joints)
     if template.placement.get("offset") is not None:
         offset = np.asarray(template.placement["offset"], dtype=float)
         placed = placed + offset * body_box(extent, template.placement["extent"])
@@ -69,15 +73,16 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
 
 
 def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
-              mean_extent, weights: list[np.ndarray] | None = None) -> np.ndarray:
+              mean_extent, weights: list[np.ndarray] | None = None, shifts: list | None = None) -> np.ndarray:
     """[J] the alpha that brings the ``refined`` rigs [N][J, 3] nearest their ``truths`` [N][J, 3] (least
     squares per joint over the examples, with per-example joint ``weights`` [N][J] (0 where unknown));
-    ``extents`` [N][3] are the meshes' boxes."""
+    ``extents`` [N][3] are the meshes' boxes; ``shifts`` [N][J, 3] each example's convention's shift (or
+    None)."""
     J = len(template.names)
     num, den = np.zeros(J), np.zeros(J)
     for n, (R, T) in enumerate(zip(refined, truths)):
         w = np.ones(J) if weights is None else weights[n]
-        pull = stretched_template(extents[n], template, mean_extent) - R
+        pull = stretched_template(extents[n], template, mean_extent, None if shifts is None else shifts[n]) - R
         num += w * np.einsum("ij,ij->i", pull, T - R)
         den += w * np.einsum("ij,ij->i", pull, pull)
     alpha = np.where(den > 1e-12, num / np.maximum(den, 1e-12), 0.0)

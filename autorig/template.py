@@ -94,6 +94,9 @@ class Template:
                towards the stretched template, and moved by the learned offset (``autorig.placement``), or None
     head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.orient``), in
                penalty units; 0 leaves front and back to the embedding alone
+    conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
+               to the shared anatomy (``autorig.convention``), or None
+    default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
     """
     name: str
     names: tuple[str, ...]
@@ -108,6 +111,8 @@ class Template:
     learned_from: dict | None = field(default=None, compare=False, hash=False)
     placement: dict | None = field(default=None, compare=False, hash=False)
     head_tail: float = field(default=0.0, compare=False, hash=False)
+    conventions: dict | None = field(default=None, compare=False, hash=False)
+    default_convention: str | None = field(default=None, compare=False, hash=False)
 
     @property
     def children(self) -> list[list[int]]:
@@ -160,6 +165,10 @@ class Template:
                                                for row in self.placement["offset"]]
         if self.head_tail:
             data["head_tail"] = round(float(self.head_tail), 4)
+        if self.conventions:
+            from .convention import conventions_dict
+            data["default_convention"] = self.default_convention
+            data["conventions"] = conventions_dict(self)
         if self.confidence is not None:
             data["confidence"] = self.confidence
         if self.learned_from is not None:
@@ -208,6 +217,9 @@ def template_json(data: dict) -> str:
         if key in ("joints", "helpers", "symmetry") and isinstance(value, list) and value:
             rows = [f"  {json.dumps(v)}" for v in value]
             lines.append(f" {json.dumps(key)}: [\n" + ",\n".join(rows) + f"\n ]{comma}")
+        elif key == "conventions" and isinstance(value, dict) and value:
+            rows = [f"  {json.dumps(k)}: {json.dumps(v)}" for k, v in value.items()]
+            lines.append(f" {json.dumps(key)}: {{\n" + ",\n".join(rows) + f"\n }}{comma}")
         else:
             lines.append(f" {json.dumps(key)}: {json.dumps(value)}{comma}")
     return "\n".join(lines) + "\n}\n"
@@ -359,6 +371,9 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         placement = {"alpha": [float(alpha[old[n]]) for n in order], "extent": [float(e) for e in extent]}
         if offset is not None:
             placement["offset"] = [[float(v) for v in offset[old[n]]] for n in order]
+    from .convention import parse_conventions
+    conventions, default_convention = parse_conventions(data.get("conventions"), names, order,
+                                                        data.get("default_convention"), bad)
     return Template(
         name=str(data.get("name", default_name)),
         names=tuple(order),
@@ -373,6 +388,8 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         learned_from=data.get("learned_from"),
         placement=placement,
         head_tail=float(head_tail),
+        conventions=conventions,
+        default_convention=default_convention,
     )
 
 

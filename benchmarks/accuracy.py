@@ -1,6 +1,6 @@
 """Rig accuracy against ground truth: the shared real characters and the project's own mannequins.
 
-    python benchmarks/accuracy.py [--shared ../shared] [--out DIR] [--cv [--folds 4]]
+    python benchmarks/accuracy.py [--shared ../shared] [--out DIR] [--cv [--folds 4] [--corpus ../corpus]]
 
 For each real character in ``shared/data/rigged`` that has a template map, the rig is made as a user makes it
 (``autorig MESH --template T [--front AXIS] -o OUT.glb``) and the .glb is scored by ``shared/tools/score.py``,
@@ -8,10 +8,11 @@ so the numbers mean what the shared scorer means: joint error as a fraction of t
 over the template joints the ground truth maps) and skin-weight agreement on the dominant joint. The
 mannequins (``autorig.samples``) know their exact skeleton, so they are scored on joints only.
 
-With ``--cv``, also the cross-validation on the training corpus (``benchmarks/cross_validation.py``): each
-kind learned as ``templates/retrain.sh`` learns it (``cross_validation.shipped_parts``) from the
-other folds of whole groups and tested on the held-out ones, before (hand-set) against after; the two kinds
-run side by side in two processes.
+With ``--cv``, also the cross-validation, each kind learned as ``templates/retrain.sh`` learns it: the biped
+leave-one-source-out (``benchmarks/sources.py``: every source of its examples held out whole, 0 A.D. by group,
+rigged in the engines' convention and in its own), the quadruped on the training corpus
+(``benchmarks/cross_validation.py``: learned from the other folds of whole groups and tested on the held-out
+ones, before (hand-set) against after); the two kinds run side by side in two processes.
 
 Also checked per model: every non-tip joint inside the mesh (generalized winding number >= 0.5) and left
 and right not swapped (each left_ joint nearer the true left joint than the true right one).
@@ -123,8 +124,10 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, help="keep the rigs here (default: a temporary folder)")
     parser.add_argument("--cv", action="store_true", help="also cross-validate on shared/data/train")
     parser.add_argument("--folds", type=int, default=4)
+    parser.add_argument("--corpus", type=Path, default=ROOT.parent / "corpus",
+                        help="with --cv: the corpora data/corpus/*.py build (default ../corpus)")
     args = parser.parse_args(argv)
-    cv = _start_cross_validation(args.shared, args.folds) if args.cv else None
+    cv = _start_cross_validation(args.shared, args.folds, args.corpus) if args.cv else None
     with tempfile.TemporaryDirectory() as tmp:
         out_dir = args.out or Path(tmp)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -146,18 +149,23 @@ def main(argv=None) -> int:
 KINDS = ("biped", "quadruped")
 
 
-def _start_cross_validation(shared: Path, folds: int):
+def _start_cross_validation(shared: Path, folds: int, corpus: Path):
     """Futures of the cross-validation summaries of both kinds, each computed in a process of its own."""
     from concurrent.futures import ProcessPoolExecutor
     pool = ProcessPoolExecutor(max_workers=len(KINDS))
-    futures = [pool.submit(_cross_validation, kind, shared, folds) for kind in KINDS]
+    futures = [pool.submit(_cross_validation, kind, shared, folds, corpus) for kind in KINDS]
     pool.shutdown(wait=False)
     return futures
 
 
-def _cross_validation(kind: str, shared: Path, folds: int) -> str:
+def _cross_validation(kind: str, shared: Path, folds: int, corpus: Path) -> str:
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import cross_validation
+    if kind == "biped":
+        import sources
+        with tempfile.TemporaryDirectory() as tmp:
+            rows = sources.evaluate(shared, corpus, folds, Path(tmp), lambda _line: None)
+        return "\n".join([sources.summary(rows)] + [sources.line(r) for r in rows])
     with tempfile.TemporaryDirectory() as tmp:
         rows = cross_validation.evaluate(kind, shared / "data" / "train", folds, Path(tmp), shared,
                                          lambda _line: None, cross_validation.shipped_parts(kind))

@@ -117,11 +117,18 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
             except AxisError as e:
                 raise ConfigError(f"{input_dir / rel}: {e} (from {configs.origin_of(rel)})") from None
             loaded, parsed = templates.load(effective["template"]), None
-            how = replace(options, up=up, front=front)
+            # A convention asked for applies to the templates that have conventions (the biped), not to the
+            # others in the same folder (a quadruped); one such template without it stops the batch.
+            convention = options.convention if loaded != AUTO and loaded.conventions else None
+            if convention is not None:
+                from ..convention import convention_named
+                convention_named(loaded, convention)
+            how = replace(options, up=up, front=front, convention=convention)
             label = AUTO if loaded == AUTO else loaded.name
             content = (_digest({"name": AUTO, "voxels": how.voxels, "max_segments": how.max_segments})
                        if loaded == AUTO else templates.digest(loaded))
-            settings = {"template": content, "up": up, "front": front}
+            settings = {"template": content, "up": up, "front": front,
+                        **({"convention": convention} if convention is not None else {})}
         try:
             files = input_files(input_dir / rel)
         except InputError:

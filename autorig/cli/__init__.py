@@ -30,7 +30,7 @@ from .learn import learn_command
 from .pose import pose_command
 from .preview import preview_command
 from .rig import rig_command
-from .templates import templates_command
+from .templates import conventions_command, templates_command
 
 __all__ = ["cli", "main", "FORMATS", "AUTO_TEMPLATE", "BATCH_EXTENSIONS"]
 
@@ -54,6 +54,7 @@ def cli():
 
 cli.add_command(rig_command)
 cli.add_command(templates_command)
+cli.add_command(conventions_command)
 cli.add_command(batch_command)
 cli.add_command(preview_command)
 cli.add_command(pose_command)

@@ -24,6 +24,9 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
               help="Assets with a skeleton (from --skeleton or autorig.toml): multiply its positions by FLOAT, or "
                    "auto: fit it to the mesh's size. [default: auto for .bvh, else 1 (positions in the mesh's "
                    "units)]")
+@click.option("--convention", metavar="NAME",
+              help="Put the joints where this convention's artists put them, for assets whose template has it "
+                   "(see 'autorig conventions'). [default: each template's own]")
 @click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
               help="Up axis for assets that no autorig.toml gives one (not for skeleton assets).")
 @click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
@@ -52,7 +55,8 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
 @common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
-                  skeleton_scale: str | None, up: str, front: str, voxels: int, max_segments: int, fmt: str,
+                  skeleton_scale: str | None, convention: str | None, up: str, front: str, voxels: int,
+                  max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
                   junit: str | None, html: str | None, names: str, quiet: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
@@ -94,7 +98,8 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
     progress = BatchProgress(quiet=quiet)
     try:
         result = rig_folder(input_dir, output_dir, template,
-                            RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments),
+                            RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments,
+                                       convention=convention),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
                             junit=junit, html=html, names=names, on_start=progress.on_start,

@@ -19,12 +19,20 @@ from .common import EXIT_CODES, common_options
 @click.option("--name", metavar="NAME", help="The learned template's name. [default: the base's, or the file's stem]")
 @click.option("--learn", "parts", default="proportions,penalties,placement,confidence", show_default=True,
               metavar="PARTS", help="What to learn (comma-separated, of proportions, penalties, orientation, "
-                                    "placement, confidence); with --template the rest is the base's. orientation: "
-                                    "how much detection weighs the head/tail cue (four-legged templates).")
+                                    "placement, conventions, confidence); with --template the rest is the base's. "
+                                    "orientation: how much detection weighs the head/tail cue (four-legged "
+                                    "templates); conventions: where each source's artists put the joints, "
+                                    "apart from the shared anatomy (needs placement).")
+@click.option("--convention", "conventions", multiple=True, metavar="NAME=SOURCE[,SOURCE...]",
+              help="With --learn conventions: ship the convention NAME, the mean of these sources' own (a "
+                   "source is a corpus folder's source_group, else its name's prefix, e.g. 0ad, else its "
+                   "folder's name). Sources no NAME covers ship under their own name. Repeatable.")
+@click.option("--default-convention", metavar="NAME",
+              help="The convention rigs take unless told. [default: the one most examples follow]")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @common_options
 def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: str | None, parts: str,
-                  quiet: bool):
+                  conventions: tuple[str, ...], default_convention: str | None, quiet: bool):
     """Learn a template from rigged characters: rest proportions, mirror pairs, feet, fat joints, tips and
     helper joints, the embedding's penalty weights (max margin) and a calibrated confidence.
 
@@ -47,7 +55,8 @@ def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: st
     base_template = load_template(base) if base else None
     progress = None if quiet else (lambda line: click.echo(f"  {line}", err=True))
     learned = learn_template(list(rigs), base=base_template, name=name or (None if base else out.stem),
-                             progress=progress, parts=[p.strip() for p in parts.split(",") if p.strip()])
+                             progress=progress, parts=[p.strip() for p in parts.split(",") if p.strip()],
+                             conventions=_named_conventions(conventions), default=default_convention)
     description = (base_description(base) + " " if base else "") + \
         f"Learned by autorig learn from {len(learned.examples)} rigged characters."
     write_file_atomic(out, template_json(learned.template.to_dict(description)).encode())
@@ -55,3 +64,15 @@ def learn_command(rigs: tuple[str, ...], output: str, base: str | None, name: st
         t = learned.template
         click.echo(f"{t.name}: {len(t.names)} joints, {len(t.helpers)} helpers, from {len(learned.examples)} "
                    f"examples in {time.perf_counter() - start:.1f} s -> {out}")
+
+
+def _named_conventions(given: tuple[str, ...]) -> dict[str, list[str]] | None:
+    """{name: [sources]} of the ``--convention NAME=SOURCE,...`` options, or None for none."""
+    out = {}
+    for item in given:
+        name, _, sources = item.partition("=")
+        members = [s.strip() for s in sources.split(",") if s.strip()]
+        if not name.strip() or not members:
+            raise click.UsageError(f"--convention {item!r}: expected NAME=SOURCE[,SOURCE...]")
+        out[name.strip()] = members
+    return out or None

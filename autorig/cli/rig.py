@@ -25,6 +25,10 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS,
 @click.option("-f", "--format", "fmt", type=click.Choice(FORMATS),
               help="Output format. [default: from -o's extension (.glb, .gltf, .json, .usda/.usdc/.usdz, "
                    ".fbx; no extension: pinocchio folder), else glb]")
+@click.option("--convention", metavar="NAME",
+              help="Put the joints where this convention's artists put them (see 'autorig conventions'). "
+                   "[default: the template's, for the built-in biped the engines' humanoid: hip joints at the "
+                   "femoral heads, as Mixamo, Unity, Unreal and the glTF samples expect]")
 @click.option("--up", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
               help="The mesh's up axis, or auto to detect it.")
 @click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
@@ -49,7 +53,8 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS,
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @common_options
-def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, up: str, front: str,
+def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, convention: str | None, up: str,
+                front: str,
                 strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
                 skeleton_scale: str | None, names: str, verbose: bool, quiet: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
@@ -68,6 +73,11 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
                              start)
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
+    if skeleton != AUTO_TEMPLATE:
+        from ..convention import convention_named
+        convention_named(skeleton, convention)   # an unknown convention fails here, before any slow work
+    elif convention is not None:
+        raise click.UsageError("--convention needs a learned template: --template auto has no conventions")
     if names != "template":
         from ..naming import check_names
         # A template without Mixamo names fails here, before any slow work.
@@ -82,7 +92,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
     with quiet_libraries(shown=verbose):
         _import_paused(RIG_MODULES, fmt)
         result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels,
-                                                          max_segments=max_segments))
+                                                          max_segments=max_segments, convention=convention))
         confidence = result.info["confidence"]
         if strict and confidence < STRICT_THRESHOLD:
             raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
@@ -94,7 +104,8 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, u
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
             axes += " (detected)"
-        click.echo(f"{mesh}: {result.template}, {len(result.names)} joints, {len(result.vertices)} vertices, "
+        template_name = result.template + (f" ({result.info['convention']})" if "convention" in result.info else "")
+        click.echo(f"{mesh}: {template_name}, {len(result.names)} joints, {len(result.vertices)} vertices, "
                    f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}"
                    + (f" (preview {preview_path})" if preview else ""))
 

@@ -24,7 +24,9 @@ from .proportions import (example_positions, fat_joints, feet, fill_from_others,
                           skeleton_of_examples, symmetrized)
 
 FOLDS = 3   # calibration folds (whole groups of examples held out together)
-PARTS = ("proportions", "penalties", "orientation", "placement", "confidence")   # what a template can learn
+# What a template can learn. "conventions" splits the placement's offset by the examples' sources
+# (``autorig.convention``): it needs "placement", the shared anatomy the conventions are offsets from.
+PARTS = ("proportions", "penalties", "orientation", "placement", "conventions", "confidence")
 
 
 @dataclass
@@ -39,7 +41,8 @@ class Learned:
 
 
 def learn_template(paths, base: Template | None = None, name: str | None = None, progress=None,
-                   parts=PARTS) -> Learned:
+                   parts=PARTS, conventions: dict[str, list[str]] | None = None,
+                   default: str | None = None) -> Learned:
     """A template learned from the rigged characters under ``paths`` (``examples.expand``).
 
     base: the template whose joint names corpus folders map to (its joints are the learned template's);
@@ -47,15 +50,25 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     progress: a callable taking one line of text, or None.
     parts: what to learn, of ``PARTS``; with a base, what is not learned is the base's (its proportions,
         its penalty weights, no placement, its confidence formula). Cross-validation decides what pays.
+    conventions: {name: [sources]}, the named conventions to ship (``learn.conventions.named_sources``);
+    default: the convention rigs take unless told (else the one most examples follow).
     """
     from ..errors import TemplateError
     unknown = sorted(set(parts) - set(PARTS))
+    if "conventions" in parts and "placement" not in parts:
+        raise TemplateError("cannot learn conventions without placement: they are offsets from its anatomy")
     if unknown or (base is None and "proportions" not in parts):
         raise TemplateError(f"cannot learn {unknown or 'without proportions'}: the parts are {', '.join(PARTS)}"
                             " (proportions needed without a base template)")
     say = progress or (lambda _line: None)
     examples = read_examples(paths, base)
     say(f"{len(examples)} examples")
+    if "conventions" in parts:
+        from .conventions import named_sources
+        known = named_sources([e.source for e in examples], conventions)
+        if default is not None and default not in known:
+            raise TemplateError(f"no examples for the convention {default!r} (the examples' sources: "
+                                f"{', '.join(sorted({e.source for e in examples}))})")
     skeleton = skeleton_of_base(base) if base is not None else skeleton_of_examples(examples)
     per_example = fill_from_others(np.array([example_positions(e, skeleton, base) for e in examples]),
                                    skeleton.parents)
@@ -82,9 +95,13 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     confidence = {}
     if "placement" in parts or "confidence" in parts:
         template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say,
-                                           parts)
+                                           parts, conventions if "conventions" in parts else None, default)
     spread = np.sqrt(np.mean(np.sum((per_example - template.positions) ** 2, axis=2), axis=0))
     record = {"examples": [e.name for e in examples], "base": base.name if base is not None else None,
+              "sources": {source: [e.name for e in examples if e.source == source]
+                          for source in sorted({e.source for e in examples})},
+              **({"conventions": {n: c["sources"] for n, c in template.conventions.items()},
+                  "default_convention": template.default_convention} if template.conventions else {}),
               "learned": [p for p in PARTS if p in parts],
               "penalty_rounds": gamma_rounds, "head_tail": head_tail,
               "mean_spread": round(float(np.mean(spread)), 4), "confidence": confidence}
@@ -168,9 +185,11 @@ def group_of(example: Example) -> str:
     return str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else example.name
 
 
-def _calibrated(template, skeleton, examples, per_example, extents, settings, say, parts=PARTS):
-    """``template`` with its learned placement and a confidence model, both fitted on rigs of held-out folds
-    (``placement.fit_alpha``, ``calibrate``)."""
+def _calibrated(template, skeleton, examples, per_example, extents, settings, say, parts=PARTS, names=None,
+                default=None):
+    """``template`` with its learned placement (and, with ``names`` {convention: [sources]}, its conventions)
+    and a confidence model, all fitted on rigs of held-out folds (``placement.fit_alpha``,
+    ``learn.conventions``, ``calibrate``)."""
     from .calibrate import fit, rig_sample, sample_row
     groups = sorted({group_of(e) for e in examples})
     fold_of_group = {g: k % FOLDS for k, g in enumerate(groups)}
@@ -184,7 +203,7 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
                                                                   list(template.symmetry)))
                           if "proportions" in parts else template) for fold in sorted(set(folds.tolist()))
                    if (folds != fold).sum() >= 2}
-    samples, sample_folds = [], []
+    samples, sample_folds, sample_examples = [], [], []
     for fold, held_out in held_out_of.items():
         for s in settings:
             # The example's own frame and the one facing backwards: rigs that are right and rigs that are not.
@@ -194,12 +213,20 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
             if sample is not None:
                 samples.append(sample)
                 sample_folds.append(fold)
+                sample_examples.append(s.example)
         say(f"calibration fold {fold + 1}/{len(set(folds.tolist()))}: {len(samples)} rigs")
     sample_folds = np.array(sample_folds)
     mean_extent = extents.mean(axis=0)
     placing = "placement" in parts and any(s.own_frame for s in samples)
+    def sources_of(ns):
+        return None if names is None else [examples[n].source for n in ns]
+    shifts = None
+    if names is not None:
+        from .conventions import source_shifts
+        # Where each source puts the joints against the mean of all: the placement's pull, per convention.
+        shifts = source_shifts(per_example, np.array(scored), [e.source for e in examples], template)
     if placing:
-        template = _placed(template, samples, mean_extent)
+        template = _placed(template, samples, mean_extent, sources_of(sample_examples), names, default, shifts)
     if "confidence" not in parts:
         return template, {}
     # The confidence sees each calibration rig placed as a new character would be: by the placement fitted on
@@ -207,15 +234,22 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
     placed_by = {}
     for fold in sorted(set(sample_folds.tolist())):
         others = [o for o, f in zip(samples, sample_folds) if f != fold]
-        placed_by[fold] = (_placed(template, others, mean_extent) if placing and any(o.own_frame for o in others)
-                           else template)
+        other_examples = [n for n, f in zip(sample_examples, sample_folds) if f != fold]
+        placed_by[fold] = (_placed(template, others, mean_extent, sources_of(other_examples), names, default,
+                                   shifts)
+                           if placing and any(o.own_frame for o in others) else template)
     # Rigs of the examples re-proportioned (``augment``): right rigs of characters unlike the corpus's one
     # skeleton, and the wrong rigs such characters get, so that the model learns what unusual proportions
     # say about a rig rather than taking every one for a wrong rig.
     varied = _varied_samples(template, skeleton, examples, per_example, scored, folds,
                              {f: t for f, t in held_out_of.items() if f in placed_by}, say)
-    rows = [sample_row(s, placed_by[fold], sigma) for s, fold in zip(samples, sample_folds)]
-    rows += [sample_row(s, placed_by[fold], sigma) for s, fold in varied]
+    # Each calibration rig in its own example's convention, as its artist would have it.
+    def row(s, fold, n):
+        from .conventions import convention_for_source
+        own = convention_for_source(placed_by[fold].conventions or {}, examples[n].source)
+        return sample_row(s, placed_by[fold], sigma, own)
+    rows = [row(s, fold, n) for s, fold, n in zip(samples, sample_folds, sample_examples)]
+    rows += [row(s, fold, n) for s, fold, n in varied]
     worst = np.array([w for _, w in rows])
     if len(rows) < 2:
         return template, {"skipped": "too few calibration rigs"}
@@ -224,7 +258,7 @@ def _calibrated(template, skeleton, examples, per_example, extents, settings, sa
 
 
 def _varied_samples(template, skeleton, examples, per_example, scored, folds, held_out_of, say) -> list:
-    """[(calibration rig, fold)] of each example's ``augment.VARIANTS`` re-proportioned variants, in their own
+    """[(calibration rig, fold, example index)] of each example's ``augment.VARIANTS`` re-proportioned variants, in their own
     frame, rigged by the template of the folds that did not see the example."""
     from ..pipeline import discretize
     from .augment import VARIANTS, varied
@@ -245,20 +279,35 @@ def _varied_samples(template, skeleton, examples, per_example, scored, folds, he
             sample = rig_sample(field, graph, held_out_of[fold], truth, scored[n], True,
                                 np.ptp(prepared.work_vertices, axis=0))
             if sample is not None:
-                out.append((sample, fold))
+                out.append((sample, fold, n))
     say(f"calibration: {len(out)} rigs of re-proportioned examples")
     return out
 
 
-def _placed(template, samples, mean_extent: np.ndarray):
-    """``template`` with the placement (alpha, then offset) fitted on the own-frame rigs among ``samples``."""
+def _placed(template, samples, mean_extent: np.ndarray, sources: list[str] | None = None, names=None,
+            default=None, shifts: dict | None = None):
+    """``template`` with the placement (alpha, then the offset) fitted on the own-frame rigs among ``samples``;
+    with the samples' ``sources``, the offset is one per named convention (``names`` {name: [sources]}), in the
+    joints' own frames (``learn.conventions``), instead of one for all, as a fraction of the box."""
     from ..placement import fit_alpha, fit_offset, learned_placement
     own = [s for s in samples if s.own_frame]
     known = [s.scored.astype(float) for s in own]
     truths, boxes = [s.truth for s in own], [s.extent for s in own]
-    alpha = fit_alpha([s.refined for s in own], truths, boxes, template, mean_extent, known)
+    own_sources = [source for s, source in zip(samples, sources) if s.own_frame] if sources is not None else None
+    own_shifts = [shifts[source] for source in own_sources] if shifts and own_sources else None
+    alpha = fit_alpha([s.refined for s in own], truths, boxes, template, mean_extent, known, own_shifts)
     template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
-    placed = [learned_placement(s.refined, template, s.extent) for s in own]
+    placed = [learned_placement(s.refined, template, s.extent, shift=None if own_shifts is None else own_shifts[n])
+              for n, s in enumerate(own)]
+    if sources is not None:
+        from .conventions import default_convention, fit_conventions
+        plain = [learned_placement(s.refined, template, s.extent) for s in own] if own_shifts else placed
+        conventions = fit_conventions(placed, plain, truths, [k > 0 for k in known],
+                                      [s.field.depth(p) for s, p in zip(own, placed)], own_sources, template,
+                                      names, shifts)
+        return replace(template, conventions=conventions,
+                       default_convention=default_convention(conventions, default if default in conventions
+                                                             else None))
     offset = fit_offset(placed, truths, boxes, template, mean_extent, known)
     return replace(template, placement={**template.placement, "offset": offset.tolist()})
 

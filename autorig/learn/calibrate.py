@@ -56,11 +56,17 @@ def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, ow
     return Sample(field, graph, embedding, joints, truth, scored, own_frame, extent)
 
 
-def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray) -> tuple[dict, float]:
+def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray, convention: str | None = None
+               ) -> tuple[dict, float]:
     """(feature row, worst joint error) of a calibration rig after ``template``'s learned placement (the
-    pipeline's placement stage)."""
+    pipeline's placement stage), in the ``convention`` of the example's artist (the template's default if it
+    does not know that one)."""
+    from ..convention import convention_shift, in_convention
     from ..placement import learned_placement
-    joints = learned_placement(sample.refined, template, sample.extent, sample.field)
+    known = convention if convention in (template.conventions or {}) else None
+    joints = learned_placement(sample.refined, template, sample.extent, sample.field,
+                               shift=convention_shift(template, known))
+    joints = in_convention(joints, template, known, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
     row = features(parts, posture_free_cost_per_bone(sample.embedding, sample.graph, template), joints, template,
                    bone_log_sigma, sample.field.surface_vertices)

@@ -32,6 +32,7 @@ class Example:
     weights    [V, J] the artist's skin weights (rows sum to 1)
     key_of     {template joint name: example joint index} for the joints the example has
     meta       the corpus's joints.json (without its joints), or {} for a glTF file
+    source     the studio, game or tool it comes from (``conventions.source_of``)
     """
     name: str
     vertices: np.ndarray
@@ -44,6 +45,7 @@ class Example:
     weights: np.ndarray
     key_of: dict[str, int] = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    source: str = ""
 
     def prepared(self):
         """The mesh in the template frame (``autorig.mesh.PreparedMesh``), centred on the body's mid-plane as
@@ -161,7 +163,13 @@ def _read_gltf(path: Path) -> Example:
 
 def read_examples(paths, base: Template | None = None) -> list[Example]:
     """Every example under ``paths`` (see ``expand``) that has the base template's joints."""
-    examples = [e for e in (read_example(p, base) for p in expand(paths)) if e is not None]
+    from .conventions import source_of
+    examples = []
+    for path in expand(paths):
+        example = read_example(path, base)
+        if example is not None:
+            example.source = source_of(example, path)
+            examples.append(example)
     if len(examples) < 2:
         raise InputError(f"learning a template needs at least two rigged characters, found {len(examples)}")
     return examples

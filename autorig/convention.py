@@ -1,0 +1,181 @@
+"""Conventions: where a studio puts its joints, apart from where the body is.
+
+Two artists rigging the same body agree on its anatomy (a knee is where the leg bends) and differ by habit: 0 A.D.'s
+put the thigh joints above the pelvis, Mixamo, Unity, Unreal and the glTF samples at the femoral heads. A learned
+template keeps one shared anatomy (proportions, Γ, placement, confidence) and, per source of its examples, a
+convention: each joint's offset from where the anatomy puts it, in a frame that moves with the body.
+
+    frame_j    a_j along the bone the joint starts (to its child on the mid-plane, or to its only child;
+               a leaf: from its parent), b_j the body's front (+z) made square to it (up, where the bone points
+               forward), c_j = a_j x b_j, turned outward on the body's right side so that mirror images share
+               one offset
+    scale_j    [along a, along b, along c] = [that bone's length, the limb's thickness, the limb's thickness],
+               the thickness being the joint's depth inside the mesh (distance field)
+    joint_j   += scale_j * (d_j[0] a_j + d_j[1] b_j + d_j[2] c_j)
+
+so that a convention learned on slim characters moves a heavy one's hip joint by its own thigh's size, not by
+its height. ``d`` [J, 3] is what a template's ``conventions`` hold, one per name (``autorig learn`` fits them,
+``autorig.learn.conventions``); tips never move.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# A joint whose depth inside the mesh is smaller than this fraction of the median depth of the skeleton's joints
+# (a toe near the sole, a joint just outside) is measured by that floor instead: the thickness of its limb
+# rather than its own distance to the nearest surface. MIN_THICKNESS (of the height: the canonical frame is one
+# unit tall) keeps a rig that lies mostly outside its mesh from dividing by nothing.
+THICKNESS_FLOOR = 0.35
+MIN_THICKNESS = 0.01
+
+
+def bone_of(template) -> np.ndarray:
+    """[J, 2] (from, to) joint indices of the bone that sets each joint's frame: to its child on the mid-plane
+    (the hips to the spine, the chest to the neck), to its only child, or, for a joint without children, from
+    its parent; (-1, -1) for a tip and for a root without children."""
+    mirror = template.mirror_of()
+    out = np.full((len(template.names), 2), -1, dtype=np.int64)
+    for j, kids in enumerate(template.children):
+        if template.is_tip(j):
+            continue
+        central = [k for k in kids if mirror[k] == k]
+        if len(kids) == 1 or (kids and central):
+            out[j] = (j, kids[0] if len(kids) == 1 else central[0])
+        elif not kids and template.parents[j] >= 0:
+            out[j] = (template.parents[j], j)
+        elif kids:
+            out[j] = (j, kids[0])
+    return out
+
+
+def joint_frames(joints: np.ndarray, template, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(axes [J, 3, 3], scales [J, 3]) of each joint's frame for the rig ``joints`` [J, 3] (canonical frame:
+    +y up, +z front, x = 0 on the mid-plane) whose depths inside the mesh are ``depth`` [J]: axes[j] holds
+    a_j, b_j, c_j as rows; scales[j] the bone's length and the thickness twice. Tips get zero scales."""
+    joints = np.asarray(joints, float)
+    J = len(joints)
+    bones = bone_of(template)
+    solid = np.array([not template.is_tip(j) for j in range(J)])
+    floor = THICKNESS_FLOOR * float(np.median(np.maximum(depth[solid], 0.0))) if solid.any() else 0.0
+    thickness = np.maximum(depth, max(floor, MIN_THICKNESS))
+    axes = np.tile(np.eye(3), (J, 1, 1))
+    scales = np.zeros((J, 3))
+    front, up = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    mirror = template.mirror_of()
+    for j, (start, end) in enumerate(bones):
+        if start < 0:
+            continue
+        along = joints[end] - joints[start]
+        length = float(np.linalg.norm(along))
+        if length < 1e-9:
+            continue
+        a = along / length
+        reference = front if abs(a @ front) < 0.9 else up
+        b = reference - (reference @ a) * a
+        b /= np.linalg.norm(b)
+        c = np.cross(a, b)
+        # Mirror images get mirrored axes: a left joint and its right twin share one offset.
+        if joints[j, 0] < -1e-6 and mirror[j] != j:
+            c = -c
+        axes[j] = np.stack([a, b, c])
+        scales[j] = (length, thickness[j], thickness[j])
+    return axes, scales
+
+
+def local_offsets(joints: np.ndarray, targets: np.ndarray, template, depth: np.ndarray) -> np.ndarray:
+    """[J, 3] the offsets d that move ``joints`` [J, 3] onto ``targets`` [J, 3] in each joint's frame
+    (``joint_frames``); 0 where a joint has no frame."""
+    axes, scales = joint_frames(joints, template, depth)
+    world = np.asarray(targets, float) - np.asarray(joints, float)
+    local = np.einsum("jab,jb->ja", axes, world)
+    return np.where(scales > 0, local / np.where(scales > 0, scales, 1.0), 0.0)
+
+
+def moved(joints: np.ndarray, offsets: np.ndarray, template, depth: np.ndarray) -> np.ndarray:
+    """[J, 3] ``joints`` [J, 3] moved by the convention ``offsets`` [J, 3] in their own frames."""
+    axes, scales = joint_frames(joints, template, depth)
+    return np.asarray(joints, float) + np.einsum("jab,ja->jb", axes, np.asarray(offsets, float) * scales)
+
+
+def convention_named(template, name: str | None):
+    """(name, offsets [J, 3]) of ``template``'s convention ``name`` (its default for None), or (None, None)
+    for a template without conventions. An unknown name is a ``TemplateError`` listing the known ones."""
+    from .errors import TemplateError
+    conventions = template.conventions or {}
+    if not conventions:
+        if name is not None:
+            raise TemplateError(f"template {template.name!r} has no conventions (it was not learned with them)")
+        return None, None
+    name = name or template.default_convention
+    if name not in conventions:
+        raise TemplateError(f"template {template.name!r} has no convention {name!r}; "
+                            f"its conventions: {', '.join(sorted(conventions))}")
+    return name, np.asarray(conventions[name]["offsets"], float)
+
+
+def convention_shift(template, name: str | None) -> np.ndarray | None:
+    """[J, 3] where the convention ``name``'s examples put the joints on average against the template's
+    mean of all (template frame, one unit tall): what the learned placement pulls towards
+    (``placement.learned_placement``); None for a template without conventions or a convention without it."""
+    _, offsets = convention_named(template, name)
+    if offsets is None:
+        return None
+    shift = template.conventions[name or template.default_convention].get("shift")
+    return None if shift is None else np.asarray(shift, float)
+
+
+def in_convention(joints: np.ndarray, template, name: str | None, field) -> np.ndarray:
+    """[J, 3] the rig ``joints`` [J, 3] (canonical frame) moved into the convention ``name`` (the template's
+    default for None); unchanged for a template without conventions. A joint the move would take out of the
+    mesh, deeper out than it was, stays where it was (as ``placement.learned_placement`` does)."""
+    _, offsets = convention_named(template, name)
+    if offsets is None:
+        return joints
+    depth = field.depth(joints)
+    placed = moved(joints, offsets, template, depth)
+    solid = np.array([not template.is_tip(j) for j in range(len(template.names))])
+    after = field.depth(placed)
+    outside = solid & (after < 0) & (after < depth)
+    placed[outside] = joints[outside]
+    return placed
+
+
+def parse_conventions(data, names: list[str], order: list[str], default, bad) -> tuple[dict | None, str | None]:
+    """(conventions, default name) of a template file's ``"conventions"`` object ({name: {"offsets": [J rows
+    of 3 numbers, in the file's joint order], ...}}) and ``"default_convention"``, checked; offsets come back
+    in the template's parents-first ``order``. ``bad`` makes the error."""
+    if data is None:
+        if default is not None:
+            raise bad('"default_convention" without "conventions"')
+        return None, None
+    if not isinstance(data, dict) or not data:
+        raise bad('"conventions" must be an object {name: {"offsets": [...]}}')
+    index = {n: i for i, n in enumerate(names)}
+
+    def rows(value) -> bool:
+        return isinstance(value, list) and len(value) == len(names) and all(
+            isinstance(row, list) and len(row) == 3 and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) < 10 for v in row)
+            for row in value)
+
+    out = {}
+    for name, convention in data.items():
+        if not isinstance(convention, dict) or not rows(convention.get("offsets")) or (
+                convention.get("shift") is not None and not rows(convention["shift"])):
+            raise bad(f'convention {name!r}: "offsets" (and "shift", if given) must be {len(names)} rows of three '
+                      f'numbers, one per joint')
+        out[str(name)] = {**convention, **{key: [[float(v) for v in convention[key][index[n]]] for n in order]
+                                           for key in ("offsets", "shift") if convention.get(key) is not None}}
+    if default is None:
+        default = next(iter(out))
+    if default not in out:
+        raise bad(f'"default_convention" {default!r} is not one of the conventions ({", ".join(out)})')
+    return out, str(default)
+
+
+def conventions_dict(template) -> dict:
+    """The template's conventions as its JSON file holds them (offsets rounded, in the template's order)."""
+    return {name: {**{k: v for k, v in c.items() if k not in ("offsets", "shift")},
+                   **{key: [[round(float(v), 4) for v in row] for row in c[key]]
+                      for key in ("shift", "offsets") if c.get(key) is not None}}
+            for name, c in (template.conventions or {}).items()}

@@ -1,0 +1,182 @@
+"""Conventions: where each studio puts its joints, apart from the shared anatomy (``autorig.convention``,
+``autorig.learn.conventions``, ``autorig conventions``, ``autorig MESH --convention``)."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import autorig
+from autorig.convention import joint_frames, local_offsets, moved
+from autorig.errors import TemplateError
+from autorig.learn.conventions import convention_for_source, default_convention, fit_conventions, named_sources, source_of
+from autorig.learn.examples import Example
+from autorig.samples import mannequin
+from autorig.template import load_template, template_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_cli(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "autorig.cli", *map(str, args)], capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def biped():
+    return load_template("biped")
+
+
+def _depths(template) -> np.ndarray:
+    return np.full(len(template.names), 0.04)
+
+
+def test_offsets_round_trip_and_mirror_images_share_them(biped):
+    joints = biped.positions
+    rng = np.random.default_rng(3)
+    offsets = rng.normal(0, 0.2, (len(joints), 3))
+    for i, j in biped.symmetry:
+        offsets[j] = offsets[i]
+    offsets[[k for k in range(len(joints)) if biped.is_tip(k)]] = 0
+    target = moved(joints, offsets, biped, _depths(biped))
+    # The move is undone exactly by the offsets it measures.
+    assert np.allclose(local_offsets(joints, target, biped, _depths(biped)), offsets, atol=1e-9)
+    # The same offsets move a left joint and its right twin to mirror images of each other.
+    for i, j in biped.symmetry:
+        assert np.allclose(target[i] * [-1, 1, 1], target[j], atol=1e-9)
+    # Tips never move.
+    tips = [k for k in range(len(joints)) if biped.is_tip(k)]
+    assert np.allclose(target[tips], joints[tips])
+
+
+def test_frames_follow_the_bone_and_scale_with_the_limb(biped):
+    axes, scales = joint_frames(biped.positions, biped, _depths(biped) * 2)
+    knee, ankle, hip = (biped.names.index(n) for n in ("left_knee", "left_ankle", "left_hip"))
+    along = biped.positions[ankle] - biped.positions[knee]
+    assert np.allclose(axes[knee, 0], along / np.linalg.norm(along))
+    assert scales[knee, 0] == pytest.approx(np.linalg.norm(along))
+    assert scales[hip, 1] == pytest.approx(0.08)
+    assert np.allclose(axes[hip] @ axes[hip].T, np.eye(3), atol=1e-9)    # orthonormal
+
+
+def test_a_convention_is_its_sources_median_shrunk_toward_the_others(biped):
+    J = len(biped.names)
+    hip = biped.names.index("left_hip")
+    depths = _depths(biped)
+    known = np.array([not biped.is_tip(j) for j in range(J)])
+
+    def examples(shift, n):
+        offsets = np.zeros((J, 3))
+        offsets[hip, 0] = offsets[biped.names.index("right_hip"), 0] = shift
+        return [biped.positions] * n, [moved(biped.positions, offsets, biped, depths)] * n
+
+    placed_a, truth_a = examples(-0.3, 8)
+    placed_b, truth_b = examples(0.3, 8)
+    placed_c, truth_c = examples(0.3, 1)
+    sources = ["studio"] * 8 + ["engine_a"] * 8 + ["engine_b"]
+    conventions = fit_conventions(placed_a + placed_b + placed_c, placed_a + placed_b + placed_c,
+                                  truth_a + truth_b + truth_c, [known] * 17,
+                                  [depths] * 17, sources, biped, {"engine": ["engine_a", "engine_b"]}, shrink=2.0)
+    assert sorted(conventions) == ["engine", "studio"]
+    assert conventions["engine"]["sources"] == ["engine_a", "engine_b"] and conventions["engine"]["examples"] == 9
+    prior = (-0.3 + 0.3 + 0.3) / 3
+    studio = conventions["studio"]["offsets"][hip][0]
+    assert studio == pytest.approx((8 * -0.3 + 2 * prior) / 10)
+    # The one-example source is pulled most of the way to the prior; the named one is the mean of its sources.
+    one = (1 * 0.3 + 2 * prior) / 3
+    assert conventions["engine"]["offsets"][hip][0] == pytest.approx(((8 * 0.3 + 2 * prior) / 10 + one) / 2)
+    assert convention_for_source(conventions, "studio") == "studio"
+    assert convention_for_source(conventions, "engine_b") == "engine"
+    assert named_sources(["a", "b", "c"], {"x": ["a", "b", "zz"]}) == {"c": ["c"], "x": ["a", "b"]}
+
+
+def test_template_file_keeps_its_conventions_and_checks_them(biped):
+    J = len(biped.names)
+    offsets = np.zeros((J, 3))
+    offsets[biped.names.index("left_hip")] = (0.2, -0.1, 0.0)
+    template = replace(biped, conventions={"studio": {"offsets": offsets.tolist(), "sources": ["s"], "examples": 3},
+                                           "engine": {"offsets": (-offsets).tolist(), "sources": ["e"],
+                                                      "examples": 5}},
+                       default_convention="engine")
+    data = template.to_dict()
+    back = template_from_dict(json.loads(json.dumps(data)))
+    assert back.default_convention == "engine"
+    assert np.allclose(back.conventions["studio"]["offsets"], offsets)
+    with pytest.raises(TemplateError, match="offsets"):
+        template_from_dict({**data, "conventions": {"studio": {"offsets": [[0, 0, 0]]}}})
+    with pytest.raises(TemplateError, match="default_convention"):
+        template_from_dict({**data, "default_convention": "nobody"})
+    with pytest.raises(TemplateError, match="no convention 'nobody'"):
+        autorig.rig(_mannequin_pair(), back, autorig.RigOptions(up="y", front="z", convention="nobody"))
+
+
+def _mannequin_pair():
+    sample = mannequin(pose="t", proportions="adult")
+    return sample.vertices, sample.faces
+
+
+def test_the_shipped_biped_puts_the_hip_joints_by_the_convention_asked():
+    """The engines' convention (the default) puts the hip joints at the femoral heads, 0 A.D.'s above the
+    pelvis: the same mesh, rigged both ways, has its thigh joints lower in the first."""
+    template = load_template("biped")
+    assert template.default_convention == "engine" and {"engine", "0ad"} <= set(template.conventions)
+    sample = mannequin(pose="t", proportions="adult")
+    rigs = {c: autorig.rig((sample.vertices, sample.faces), template,
+                           autorig.RigOptions(up="y", front="z", convention=c)) for c in ("engine", "0ad")}
+    height = np.ptp(sample.vertices[:, 1])
+    hip = rigs["engine"].names.index("left_hip")
+    assert rigs["engine"].info["convention"] == "engine"
+    assert rigs["0ad"].joints[hip, 1] - rigs["engine"].joints[hip, 1] > 0.01 * height
+    # The limb ends the embedding found are the same in both: a convention moves joints, not limbs.
+    toe = rigs["engine"].names.index("left_toe_end")
+    assert np.allclose(rigs["engine"].joints[toe], rigs["0ad"].joints[toe])
+    default = autorig.rig((sample.vertices, sample.faces), template, autorig.RigOptions(up="y", front="z"))
+    assert np.allclose(default.joints, rigs["engine"].joints)
+
+
+def test_cli_lists_conventions_and_refuses_an_unknown_one(tmp_path):
+    listed = run_cli("conventions")
+    assert listed.returncode == 0
+    lines = listed.stdout.splitlines()
+    assert any(line.startswith("* engine") for line in lines) and any("0ad" in line for line in lines)
+    out = tmp_path / "m.glb"
+    refused = run_cli(ROOT / "data" / "mannequin.obj", "--convention", "nobody", "-o", out)
+    assert refused.returncode == 3 and not out.exists()
+    assert len(refused.stderr.strip().splitlines()) == 1 and "engine" in refused.stderr
+    handset = run_cli("conventions", "--template", ROOT / "templates" / "handset" / "biped.json")
+    assert handset.returncode == 0 and "no conventions" in handset.stdout
+
+
+def test_batch_rigs_in_the_convention_asked_and_refuses_an_unknown_one(tmp_path):
+    from autorig.exchange.gltf import read_glb
+    assets = tmp_path / "assets"
+    assets.mkdir()
+    (assets / "man.obj").write_bytes((ROOT / "data" / "mannequin.obj").read_bytes())
+    refused = run_cli("batch", assets, "-o", tmp_path / "bad", "--convention", "nobody", "-j", "1")
+    assert refused.returncode == 3 and "nobody" in refused.stderr and not (tmp_path / "bad" / "man.rigged.glb").exists()
+    joints = {}
+    for convention in ("engine", "0ad"):
+        done = run_cli("batch", assets, "-o", tmp_path / convention, "--convention", convention, "-j", "1",
+                       "--front", "z", "--up", "y")
+        assert done.returncode == 0, done.stderr
+        rig = read_glb(tmp_path / convention / "man.rigged.glb")
+        joints[convention] = rig.joints[rig.names.index("left_hip")]
+    assert joints["0ad"][1] > joints["engine"][1]
+
+
+def test_an_example_s_source_and_the_default_convention(tmp_path):
+    def example(name, meta):
+        return Example(name, np.zeros((3, 3)), np.zeros((1, 3), int), "y", "z", [], np.zeros(0, int),
+                       np.zeros((0, 3)), np.zeros((3, 0)), meta=meta)
+    assert source_of(example("0ad_boar", {"biped_map": {}}), tmp_path / "train" / "0ad_boar") == "0ad"
+    assert source_of(example("x", {"source_group": "makehuman"}), tmp_path / "x") == "makehuman"
+    assert source_of(example("CesiumMan", {"biped_map": {}}), tmp_path / "rigged" / "CesiumMan") == "rigged"
+    # A studio's rigged files are the studio's, whatever their names.
+    assert source_of(example("knight_a", {}), tmp_path / "studio" / "knight_a.glb") == "studio"
+    conventions = {"studio": {"examples": 8}, "engine": {"examples": 3}}
+    assert default_convention(conventions, None) == "studio"
+    assert default_convention(conventions, "engine") == "engine"
