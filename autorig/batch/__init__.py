@@ -76,6 +76,14 @@ Resuming
     written without timings (they go to the report instead), so rigging the same asset again, here or on a
     cluster, gives byte-identical files.
 
+Files from the asset's own folder
+    Each asset may read only the files in its own folder and below it (``autorig.confine``): textures, MTL
+    files, glTF buffers and images named outside it are left out with a warning (``AssetResult.dropped``),
+    as is the asset itself when it is a symlink leading out of ``input_dir``, and a config's template and
+    skeleton files must lie inside ``input_dir``: unless ``options.allow_outside_paths``. Even then a
+    texture named by ``..`` is not sent along to the worker (only the asset's own folder travels); an
+    absolute path is read where the worker runs.
+
 Failures
     One failing asset never stops the batch: it gets status ``failed`` and its one-line error (so does one
     that asks for Pinocchio output with a skeleton of several roots, which that format cannot hold). An asset
@@ -174,7 +182,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     if output_dir.resolve() == input_dir.resolve():
         raise InputError(f"{output_dir}: the output folder must not be the input folder")
     if html is None:
-        html = html_setting(input_dir, output_dir)
+        html = html_setting(input_dir, output_dir, options.allow_outside_paths or skin_options.allow_outside_paths)
     if html is not None:
         require_thumbnails()
     for path in (report, junit, html):
@@ -228,8 +236,9 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     def jobs_of() -> Iterator[tuple[Plan, Job]]:
         for plan in order:
             try:
-                yield plan, Job(plan.rel, input_files(input_dir / plan.rel), plan.template, plan.skeleton,
-                                plan.options, fmt, names=names, thumbnails=html is not None)
+                files = input_files(input_dir / plan.rel, input_dir, plan.options.allow_outside_paths)
+                yield plan, Job(plan.rel, files, plan.template, plan.skeleton, plan.options, fmt, names=names,
+                                thumbnails=html is not None)
             except InputError as e:  # unreadable, or gone since it was found
                 finished(plan, {"status": "failed", "remember": False, "error": str(e),
                                 "error_type": "InputError"})
