@@ -423,11 +423,11 @@ def _unreadable(error: OSError) -> str:
 
 
 def _numeric(values: list[str]) -> bool:
+    """Whether the statement's first three values are finite numbers (a NaN colour has no JSON)."""
     try:
-        [float(v) for v in values[:3]]
+        return bool(values) and all(math.isfinite(float(v)) for v in values[:3])
     except ValueError:
         return False
-    return bool(values)
 
 
 def _map_file(statement: list[str]) -> str | None:
