@@ -236,3 +236,16 @@ def test_batch_configs_may_not_name_files_outside_the_input_folder(place):
     (root / "autorig.toml").write_text('html = "../../review.html"\n')
     result = run("batch", root, "-o", place / "out")
     assert result.exit_code == 2 and "html" in result.stderr and len(result.stderr.splitlines()) == 1
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".usdz"])
+def test_an_output_over_a_symlink_replaces_the_link_not_its_target(place, suffix):
+    if suffix == ".usdz":
+        pytest.importorskip("pxr")
+    target = place / "secret" / "precious.txt"
+    target.write_bytes(SECRET)
+    out = place / f"out{suffix}"
+    link_or_skip(out, target)
+    result = run(obj_asset(place, "photo.jpg"), "--skeleton", place / "skeleton.json", "-o", out)
+    assert result.exit_code == 0, result.stderr
+    assert target.read_bytes() == SECRET and not out.is_symlink() and out.stat().st_size > 1000
