@@ -205,12 +205,13 @@ def _statements_fast(lines: list[str]):
             return None
         numbers = numbers.reshape(corners, slashes + 1) - 1
         xyz = _numbers(v, (3, 6))
-        uvs = _numbers(vt, (2, 3))[:, :2] if vt else np.zeros((0, 2))
+        uvs = _numbers(vt, (2, 3)) if vt else np.zeros((0, 2))
         normals = _numbers(vn, (3,)) if vn else np.zeros((0, 3))
     except ValueError:
         return None
     if xyz is None or uvs is None or normals is None:
         return None
+    uvs = uvs[:, :2]
     table = np.full((corners, 3), -1, dtype=np.int64)
     table[:, :numbers.shape[1]] = numbers
     triangles = fan(np.arange(corners), counts)

@@ -201,7 +201,7 @@ def check_header(path: Path, suffix: str, max_faces: int | None) -> None:
                 except ValueError:
                     return
             elif words[:1] == ["property"] and elements:
-                # a list's least is its count alone (an empty list); a face's three corners are checked below
+                # a list property takes at least its count (an empty list)
                 kind = words[2] if words[1:2] == ["list"] and len(words) > 2 else words[1] if len(words) > 1 else ""
                 elements[-1][2] += _PLY_SIZES.get(kind, 1) if binary else _ASCII_VALUE
         least = 0

@@ -7,7 +7,8 @@ OBJ and the MTL mutated), binary and ASCII PLY and STL, OFF, glTF and GLB writte
 template file; JSON and BVH ``--skeleton`` files. Mutations: flipped, inserted, deleted and duplicated bytes,
 truncation, and numbers replaced by extreme ones (in text, a number token; in binary, a 32-bit word), which is
 how declared counts and offsets go wrong. Bounded and deterministic (``derandomize``): the same cases in CI
-every run (``AUTORIG_FUZZ_EXAMPLES=N`` searches further). ``AUTORIG_FUZZ_STATS=FILE`` writes the number of cases and the longest one there.
+every run (``AUTORIG_FUZZ_EXAMPLES=N`` searches further). ``AUTORIG_FUZZ_STATS=FILE`` writes the number of
+cases and the longest one there.
 """
 from __future__ import annotations
 
@@ -34,9 +35,9 @@ from autorig.cli import cli
 # Documented exit codes a hostile input may end in: rigged, bad input, bad template or skeleton, no fit.
 ALLOWED_EXITS = {0, 2, 3, 5}
 CASE_SECONDS = 30            # the bound on one case; a case running past it is a hang
-# Per input kind: ~330 cases in all, about half a minute on two shared cores. AUTORIG_FUZZ_EXAMPLES=N runs
-# more, to search further by hand.
-EXAMPLES = int(os.environ.get("AUTORIG_FUZZ_EXAMPLES", 30))
+# Per input kind (a third of it for templates): ~930 cases in all, about 25 s on two shared cores.
+# AUTORIG_FUZZ_EXAMPLES=N runs more, to search further by hand.
+EXAMPLES = int(os.environ.get("AUTORIG_FUZZ_EXAMPLES", 80))
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
                     suppress_health_check=list(HealthCheck))
 EXTREMES = ["0", "-1", "1", "2147483648", "4294967295", "18446744073709551616", "99999999999999999999999",

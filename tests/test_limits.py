@@ -151,3 +151,16 @@ def test_the_command_lines_default_is_the_librarys():
     batch_option = next(p for p in cli.commands["batch"].params if p.name == "max_faces")
     assert option.default == batch_option.default == limits.MAX_FACES == RigOptions().max_faces \
         == SkinOptions().max_faces
+
+
+def test_a_bvh_nested_too_deeply(tmp_path):
+    path = tmp_path / "tetra.obj"
+    path.write_text(TETRA_OBJ)
+    depth = 20_000
+    joints = "".join(f"JOINT j{k}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n" for k in range(depth))
+    (tmp_path / "deep.bvh").write_text("HIERARCHY\nROOT hips\n{\nOFFSET 0 0 0\nCHANNELS 0\n" + joints
+                                       + "}\n" * (depth + 1) + "MOTION\nFrames: 0\nFrame Time: 0.04\n")
+    result = CliRunner().invoke(cli, [str(path), "--skeleton", str(tmp_path / "deep.bvh")], prog_name="autorig")
+    assert result.exit_code == 3, (result.stderr, result.exception)
+    [line] = result.stderr.splitlines()
+    assert "nests too deeply" in line

@@ -93,14 +93,13 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
     from ..batch.progress import BatchProgress
     from ..pipeline import RigOptions, SkinOptions
 
+    limits = {"max_faces": max_faces, "allow_outside_paths": allow_outside_paths}
     progress = BatchProgress(quiet=quiet)
     try:
         result = rig_folder(input_dir, output_dir, template,
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments,
-                                       max_faces=max_faces, allow_outside_paths=allow_outside_paths),
-                            skeleton=skeleton_file, skin_options=SkinOptions(scale=scale, max_faces=max_faces,
-                                                                             allow_outside_paths=allow_outside_paths),
-                            fmt=fmt,
+                                       **limits),
+                            skeleton=skeleton_file, skin_options=SkinOptions(scale=scale, **limits), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
                             junit=junit, html=html, names=names, on_start=progress.on_start,
                             on_result=progress.on_result)
