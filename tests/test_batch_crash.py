@@ -1,7 +1,8 @@
-"""A batch killed (SIGKILL, the whole process group: the batch and its workers) at seeded random moments and run
-again ends exactly as a batch never interrupted: the same output files, byte for byte, the same report (an
-asset rigged before the kill reported skipped, previously ok), no temporaries left. Two batches on one output
-folder at once: the second refuses with one line, exit 4 (issue 28)."""
+"""A batch killed (SIGKILL, the whole process group: the batch and its workers) at seeded random moments (while
+it starts, then after a seeded number of outputs) and run again ends exactly as a batch never interrupted: the
+same output files, byte for byte, the same report (an asset rigged before the kill reported skipped, previously
+ok), no temporaries left. Two batches on one output folder at once: the second refuses with one line, exit 4
+(issue 28)."""
 from __future__ import annotations
 
 import hashlib
@@ -90,16 +91,32 @@ def reference(assets) -> tuple[dict, dict, float]:
     return files_of(assets / "reference"), report_of(assets / "reference"), time.perf_counter() - started
 
 
+def rigged(out: Path) -> int:
+    """Outputs in place (a temporary is hidden, and renamed into place whole)."""
+    return len(list(out.rglob("*.rigged.glb")))
+
+
 def test_killed_and_resumed_gives_the_uninterrupted_outputs_and_report(assets, reference):
     expected_files, expected_report, seconds = reference
     assert len(expected_files) == 12 and expected_report["exit_code"] == 7
     moments = random.Random(SEED)
+    # The first kill lands while the batch starts (plan, workers spawning), the others once a seeded number of
+    # outputs are in place, a few milliseconds later: mid-rig or mid-write, with work still left each time.
+    after_outputs = [0] + sorted(moments.sample(range(1, len(expected_files)), KILLS - 1))
     killed_mid_run = 0
-    for _ in range(KILLS):
+    for target in after_outputs:
         run = batch(assets, "resumed")
-        time.sleep(moments.uniform(0.2, 0.9) * seconds)
+        if target == 0:
+            time.sleep(moments.uniform(0.05, 0.3) * seconds)
+        else:
+            while rigged(assets / "resumed") < target and run.poll() is None:
+                time.sleep(0.005)
+            time.sleep(moments.uniform(0, 0.05))
         killed_mid_run += run.poll() is None
-        os.killpg(run.pid, signal.SIGKILL)
+        try:
+            os.killpg(run.pid, signal.SIGKILL)
+        except ProcessLookupError:  # it had ended already: this kill did not count
+            pass
         run.wait(timeout=60)
     final = batch(assets, "resumed")
     assert final.wait(timeout=300) == 7, final.stderr.read()
