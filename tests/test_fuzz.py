@@ -12,10 +12,12 @@ cases and the longest one there.
 """
 from __future__ import annotations
 
+import atexit
 import json
 import os
 import re
 import resource
+import shutil
 import signal
 import tempfile
 import time
@@ -58,6 +60,7 @@ def seeds() -> dict[str, bytes]:
     sample = mannequin(resolution=24)
     vertices, faces = sample.vertices, sample.faces
     folder = Path(tempfile.mkdtemp(prefix="autorig-fuzz-seeds-"))
+    atexit.register(shutil.rmtree, folder, True)
     uv = (vertices[:, [0, 1]] - vertices[:, [0, 1]].min(0)) / np.ptp(vertices[:, [0, 1]], axis=0)
     obj = ["mtllib man.mtl", "o man"] + [f"v {x:.5f} {y:.5f} {z:.5f}" for x, y, z in vertices]
     obj += [f"vt {u:.4f} {v:.4f}" for u, v in uv] + ["usemtl skin"]
