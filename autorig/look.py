@@ -23,26 +23,29 @@ from pathlib import Path
 
 import numpy as np
 
+from .confine import Dropped
 from .errors import InputError
 from .result import Image, Look
 
 __all__ = ["load_look", "material_files"]
 
 
-def load_look(path: str | Path, faces: np.ndarray) -> Look | None:
+def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) -> Look | None:
     """The look of the mesh file ``path`` whose triangles ``load_mesh`` read as ``faces`` [F, 3], or None.
 
-    Raises ``InputError`` for an unreadable file; a missing MTL or texture only leaves that part out, and OBJ
-    texture coordinates or normals that do not parse or point past the file's leave the whole look out.
+    Raises ``InputError`` for an unreadable file; a missing, refused (``autorig.confine``: outside the mesh's
+    folder unless ``allow_outside``) or unusable MTL or texture only leaves that part out, recorded in
+    ``Look.dropped``; OBJ texture coordinates or normals that do not parse or point past the file's leave the
+    whole look out.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".glb", ".gltf"):
         from .exchange.gltf import read_gltf_scene
-        look = read_gltf_scene(path)[2]
+        look = read_gltf_scene(path, allow_outside)[2]
     elif suffix == ".obj":
         try:
-            look = _obj_look(path, faces)
+            look = _obj_look(path, faces, allow_outside)
         except (ValueError, IndexError):
             # Texture coordinates or normals that do not parse or point nowhere: the shape, which load_mesh
             # has checked, still rigs; the look is left out rather than guessed.
@@ -57,7 +60,7 @@ def load_look(path: str | Path, faces: np.ndarray) -> Look | None:
 
 # ------------------------------------------------------------------------------------------------------ OBJ
 
-def _obj_look(path: Path, faces: np.ndarray) -> Look | None:
+def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool) -> Look | None:
     try:
         data = path.read_bytes()
     except OSError as e:
@@ -100,14 +103,14 @@ def _obj_look(path: Path, faces: np.ndarray) -> Look | None:
     vertex_colors = None
     if colors is not None:
         vertex_colors = np.hstack([np.asarray(colors, dtype=np.float32)[vertex_of], np.ones((W, 1), dtype=np.float32)])
-    materials, textures, images = _read_materials(path, libraries, material_names)
+    materials, textures, images, dropped = _read_materials(path, libraries, material_names, allow_outside)
     return Look(vertex_of=vertex_of, faces=corner_vertex.reshape(-1, 3), texcoords=texcoords,
                 colors=vertex_colors, normals=vertex_normals,
                 face_material=np.asarray(face_material, dtype=np.int64),
                 face_part=np.asarray(face_part, dtype=np.int64),
                 parts=[{"name": name or path.stem, "extras": {}} for name in part_names],
                 materials=materials, textures=textures,
-                samplers=[{"wrapS": 10497, "wrapT": 10497}] if textures else [], images=images)
+                samplers=[{"wrapS": 10497, "wrapT": 10497}] if textures else [], images=images, dropped=dropped)
 
 
 def _statements(lines: list[str]):
@@ -202,12 +205,13 @@ def _statements_fast(lines: list[str]):
             return None
         numbers = numbers.reshape(corners, slashes + 1) - 1
         xyz = _numbers(v, (3, 6))
-        uvs = _numbers(vt, (2, 3))[:, :2] if vt else np.zeros((0, 2))
+        uvs = _numbers(vt, (2, 3)) if vt else np.zeros((0, 2))
         normals = _numbers(vn, (3,)) if vn else np.zeros((0, 3))
     except ValueError:
         return None
     if xyz is None or uvs is None or normals is None:
         return None
+    uvs = uvs[:, :2]
     table = np.full((corners, 3), -1, dtype=np.int64)
     table[:, :numbers.shape[1]] = numbers
     triangles = fan(np.arange(corners), counts)
@@ -322,16 +326,25 @@ _MAP_OPTIONS_WITH_VALUES = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "
                             "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1}
 
 
-def _read_materials(obj_path: Path, libraries: list[str], names: list[str]
-                    ) -> tuple[list[dict], list[dict], list[Image]]:
-    """glTF materials for ``names`` (in that order) from the MTL files, and the textures and images they use."""
+def _read_materials(obj_path: Path, libraries: list[str], names: list[str], allow_outside: bool = False
+                    ) -> tuple[list[dict], list[dict], list[Image], list[Dropped]]:
+    """glTF materials for ``names`` (in that order) from the MTL files, the textures and images they use, and
+    the MTL files and maps left out (missing, refused by ``autorig.confine``, not PNG or JPEG)."""
+    from .confine import Refused, image_problem, inside
+
+    root = obj_path.parent
     statements: dict[str, dict[str, list[str]]] = {}
     folders: dict[str, Path] = {}
+    dropped: list[Dropped] = []
     for library in libraries:
         mtl = obj_path.parent / library
         try:
-            text = mtl.read_bytes().decode("latin-1")
-        except OSError:
+            text = inside(root, library, root, allow_outside).read_bytes().decode("latin-1")
+        except Refused as e:
+            dropped.append(Dropped("mtllib", library, str(e)))
+            continue
+        except OSError as e:
+            dropped.append(Dropped("mtllib", library, _unreadable(e)))
             continue
         current = None
         for line in text.replace("\r", "\n").split("\n"):
@@ -347,19 +360,25 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str]
     materials, textures, images = [], [], []
     image_index: dict[Path, int] = {}
 
-    def texture(statement: list[str], folder: Path) -> int | None:
+    def texture(statement: list[str], folder: Path, material: str, key: str) -> int | None:
         file = _map_file(statement)
         if file is None:
             return None
-        where = (folder / file.replace("\\", "/")).resolve()
+        try:
+            where = inside(folder, file, root, allow_outside)
+        except Refused as e:
+            dropped.append(Dropped(f"material {material!r} {key}", file, str(e)))
+            return None
         if where not in image_index:
             try:
                 data = where.read_bytes()
-            except OSError:
+            except OSError as e:
+                dropped.append(Dropped(f"material {material!r} {key}", file, _unreadable(e)))
                 return None
             from .exchange.gltf_look import image_mime_type
             mime = image_mime_type(data)
             if not mime:
+                dropped.append(Dropped(f"material {material!r} {key}", file, image_problem(data, file)))
                 return None
             images.append(Image(data=data, mime_type=mime, name=where.stem))
             textures.append({"source": len(images) - 1, "sampler": 0})
@@ -378,18 +397,18 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str]
         elif "ns" in numbers:
             pbr["roughnessFactor"] = 1.0 - math.sqrt(min(max(numbers["ns"][0], 0.0), 1000.0) / 1000.0)
         material: dict = {"name": name, "pbrMetallicRoughness": pbr}
-        if (base := texture(given.get("map_kd", []), folder)) is not None:
+        if (base := texture(given.get("map_kd", []), folder, name, "map_Kd")) is not None:
             # The map replaces Kd, as Blender's OBJ importer reads it (its exporter writes Kd 0.8 beside a map).
             pbr["baseColorTexture"] = {"index": base}
             pbr["baseColorFactor"][:3] = [1.0, 1.0, 1.0]
-        if (rough := texture(given.get("map_pr", []), folder)) is not None:
+        if (rough := texture(given.get("map_pr", []), folder, name, "map_Pr")) is not None:
             pbr["metallicRoughnessTexture"] = {"index": rough}
         for key in ("norm", "map_bump", "bump"):
-            if (normal := texture(given.get(key, []), folder)) is not None:
+            if (normal := texture(given.get(key, []), folder, name, key)) is not None:
                 material["normalTexture"] = {"index": normal}
                 break
         emission = numbers.get("ke", [0.0, 0.0, 0.0])
-        if (glow := texture(given.get("map_ke", []), folder)) is not None:
+        if (glow := texture(given.get("map_ke", []), folder, name, "map_Ke")) is not None:
             material["emissiveTexture"] = {"index": glow}
             emission = emission if any(emission) else [1.0, 1.0, 1.0]
         if any(emission):
@@ -397,15 +416,19 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str]
         if alpha < 1.0 or "map_d" in given:
             material["alphaMode"] = "BLEND"
         materials.append(material)
-    return materials, textures, images
+    return materials, textures, images, dropped
+
+
+def _unreadable(error: OSError) -> str:
+    return "missing file" if isinstance(error, FileNotFoundError) else f"cannot read ({error.strerror or error})"
 
 
 def _numeric(values: list[str]) -> bool:
+    """Whether the statement's first three values are finite numbers (a NaN colour has no JSON)."""
     try:
-        [float(v) for v in values[:3]]
+        return bool(values) and all(math.isfinite(float(v)) for v in values[:3])
     except ValueError:
         return False
-    return bool(values)
 
 
 def _map_file(statement: list[str]) -> str | None:

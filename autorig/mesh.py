@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import AutorigError, InputError
-from .mesh_files import FORMATS, as_text, load_with_trimesh, parse_obj, parse_off
+from .limits import MAX_FACES, check_faces, check_file_size
+from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
 
 # A mesh whose points all lie within this fraction of its size from one plane is a 2D cut-out.
 FLAT_TOLERANCE = 1e-6
@@ -40,7 +41,8 @@ class AxisError(AutorigError, ValueError):
 
 # ----------------------------------------------------------------------------------------------------- loading
 
-def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside: bool = False
+              ) -> tuple[np.ndarray, np.ndarray]:
     """Read a triangle mesh from an OBJ, OFF, PLY, STL, glTF or GLB file.
 
     Returns ``(vertices, faces)``:
@@ -57,22 +59,31 @@ def load_mesh(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     and lines in a scene are ignored. Materials and textures are not read here (``autorig.look`` does).
 
     Raises ``InputError`` (one line naming the file) for a missing or unreadable file, an unknown format,
-    content that is not a mesh, and for meshes that cannot be rigged (see ``check_mesh``).
+    content that is not a mesh, and for meshes that cannot be rigged (see ``check_mesh``); also, before
+    anything is allocated for them, for counts the file declares but does not hold, for more than
+    ``max_faces`` triangles (None: no limit) and for a mesh too big for the memory available
+    (``autorig.limits``). A glTF's buffer files must lie in its folder unless ``allow_outside``
+    (``autorig.confine``).
     """
     path = check_mesh_path(path)
     suffix = path.suffix.lower()
+    check_file_size(path)
     if suffix in (".obj", ".off"):
         try:
             data = path.read_bytes()
         except OSError as e:
             raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+        if suffix == ".obj":  # every polygon line is one triangle or more
+            check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
         text = as_text(data, path, FORMATS[suffix])
-        vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path)
+        vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
     elif suffix in (".glb", ".gltf"):
         from .exchange.gltf import read_gltf_scene
-        vertices, faces, _ = read_gltf_scene(path)
+        vertices, faces, _ = read_gltf_scene(path, allow_outside, max_faces, look=False)
     else:
+        check_header(path, suffix, max_faces)
         vertices, faces = load_with_trimesh(path, suffix)
+    check_faces(len(faces), max_faces, str(path))
     return check_mesh(vertices, faces, name=str(path))
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .limits import check_declared, check_faces
 
 FORMATS = {".obj": "OBJ", ".off": "OFF", ".ply": "PLY", ".stl": "STL", ".glb": "glTF", ".gltf": "glTF"}
 
@@ -121,7 +122,7 @@ def _parse_obj_lines(lines: list[str], path: Path) -> tuple[np.ndarray, np.ndarr
             np.array(faces, dtype=np.int64).reshape(-1, 3))
 
 
-def parse_off(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
+def parse_off(text: str, path: Path, max_faces: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Parse OFF (and its COFF/NOFF/STOFF variants, whose extra per-vertex columns we ignore) ourselves:
     trimesh's OFF reader fails on files that mix triangles with other polygons."""
     lines = [(n, l.split("#", 1)[0].split()) for n, l in enumerate(text.splitlines(), 1)]
@@ -145,6 +146,7 @@ def parse_off(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
     if n_vertices < 0 or n_faces < 0 or len(body) < n_vertices + n_faces:
         raise InputError(f"{path}: truncated: the header promises {n_vertices} vertices and {n_faces} faces "
                          f"but the file has only {len(body)} data lines")
+    check_faces(n_faces, max_faces, str(path))
     vertices = []
     for n, tokens in body[:n_vertices]:
         try:
@@ -163,6 +165,51 @@ def parse_off(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
         faces.extend((corners[0], corners[i], corners[i + 1]) for i in range(1, k - 1))
     return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
             np.array(faces, dtype=np.int64).reshape(-1, 3))
+
+
+# Bytes of each PLY property type, and the least an ASCII value takes ("0" and a separator).
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
+              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+_ASCII_VALUE = 2
+
+
+def check_header(path: Path, suffix: str, max_faces: int | None) -> None:
+    """Check a PLY's or binary STL's declared counts against its bytes and ``max_faces`` before trimesh reads
+    it: trimesh allocates what the header says (a PLY that promises 2³¹ vertices, 2 GB or a MemoryError)."""
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as f:
+            head = f.read(65536)
+    except OSError as e:
+        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+    if suffix == ".stl" and len(head) >= 84 and not head.lstrip()[:5].lower() == b"solid":
+        count = int.from_bytes(head[80:84], "little")
+        check_declared(count, 50, size - 84, "triangles", str(path))
+        check_faces(count, max_faces, str(path))
+    elif suffix == ".ply" and head.startswith(b"ply"):
+        end = head.find(b"end_header")
+        if end < 0:
+            return  # trimesh says what is wrong with it
+        binary = b"format binary" in head[:end]
+        body = size - head.find(b"\n", end) - 1
+        elements: list[list] = []   # [name, count, least bytes of one]
+        for line in head[:end].decode("latin-1").splitlines():
+            words = line.split()
+            if words[:1] == ["element"] and len(words) >= 3:
+                try:
+                    elements.append([words[1], int(words[2]), 0])
+                except ValueError:
+                    return
+            elif words[:1] == ["property"] and elements:
+                # a list property takes at least its count (an empty list)
+                kind = words[2] if words[1:2] == ["list"] and len(words) > 2 else words[1] if len(words) > 1 else ""
+                elements[-1][2] += _PLY_SIZES.get(kind, 1) if binary else _ASCII_VALUE
+        least = 0
+        for name, count, each in elements:
+            check_declared(count, max(each, 1), body - least, f"element {name}", str(path))
+            least += count * max(each, 1)
+            if name == "face":
+                check_faces(count, max_faces, str(path))
 
 
 def load_with_trimesh(path: Path, suffix: str) -> tuple[np.ndarray, np.ndarray]:

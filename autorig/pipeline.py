@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .limits import MAX_FACES
 from .result import Rig
 
 
@@ -43,12 +44,17 @@ class RigOptions:
     voxels, max_segments: template "auto" only: grid cells along the longest side of the mesh, and the most
     bones per extracted chain, plus one for each chain hanging from it (see ``autorig.extract``).
     convention: where the joints go by whose habit, of the template's conventions (``autorig.convention``);
-    None for the template's default."""
+    None for the template's default.
+    max_faces: a mesh of more triangles is refused (``InputError``) before it is read (None: no limit).
+    allow_outside_paths: let a mesh file name textures, MTL files and buffers outside its own folder
+    (``autorig.confine``)."""
     up: str = "auto"
     front: str = "auto"
     voxels: int = 96
     max_segments: int = 8
     convention: str | None = None
+    max_faces: int | None = MAX_FACES
+    allow_outside_paths: bool = False
 
 
 def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
@@ -72,7 +78,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        vertices, faces, name, look = _load(mesh)
+        vertices, faces, name, look = _load(mesh, options)
         template = template if isinstance(template, Template) or template == AUTO else load_template(template)
     if template == AUTO:
         return _rig_without_template(vertices, faces, name, look, options, stage, timings)
@@ -104,7 +110,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
-              "search_expansions": int(embedding.expanded),
+              "search_expansions": int(embedding.expanded), **dropped_info(look),
               **({"convention": convention} if convention else {})})
 
 
@@ -147,8 +153,10 @@ class SkinOptions:
     per file unit), "auto" scales and moves the skeleton to fit the mesh's bounding box (see
     ``autorig.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
     mesh's) and 1 for JSON and glTF skeletons (taken as they are, in the mesh's coordinates). Anything else
-    (zero, negative, not a number) is an ``InputError``."""
+    (zero, negative, not a number) is an ``InputError``. max_faces, allow_outside_paths: as in ``RigOptions``."""
     scale: float | str | None = None
+    max_faces: int | None = MAX_FACES
+    allow_outside_paths: bool = False
 
     def __post_init__(self):
         import numbers
@@ -180,7 +188,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     stage = _stage_timer(timings)
 
     with stage("load"):
-        vertices, faces, mesh_name, look = _load(mesh)
+        vertices, faces, mesh_name, look = _load(mesh, options)
         name = Path(skeleton).stem if isinstance(skeleton, (str, Path)) else "skeleton"
         skeleton = skeleton if isinstance(skeleton, Skeleton) else read_skeleton(skeleton)
     with stage("prepare"):
@@ -212,7 +220,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
                                       for c in children]
                              for reason, children in (("outside", plan.outside), ("along_other_bones", plan.doubled),
                                                       ("zero_length", plan.zero_length)) if children},
-              "all_bones_heat": plan.fallback})
+              "all_bones_heat": plan.fallback, **dropped_info(look)})
 
 
 def _rig_without_template(vertices, faces, name: str, look, options: RigOptions, stage, timings) -> Rig:
@@ -246,19 +254,28 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
               "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
-              "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths)})
+              "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 
 
-def _load(mesh) -> tuple[np.ndarray, np.ndarray, str, object]:
+def _load(mesh, options) -> tuple[np.ndarray, np.ndarray, str, object]:
     """(vertices [V, 3], faces [F, 3], the name errors use, the input's ``Look`` or None) of a mesh path or
-    (vertices, faces) pair, checked."""
+    (vertices, faces) pair, checked, with the ``options``' limits."""
+    from .limits import check_faces
     from .look import load_look
     from .mesh import check_mesh, load_mesh
 
     if isinstance(mesh, (str, Path)):
-        vertices, faces = load_mesh(mesh)
-        return vertices, faces, Path(mesh).name, load_look(mesh, faces)
-    return (*check_mesh(*mesh, "mesh"), "mesh", None)
+        vertices, faces = load_mesh(mesh, options.max_faces, options.allow_outside_paths)
+        return vertices, faces, Path(mesh).name, load_look(mesh, faces, options.allow_outside_paths)
+    vertices, faces = check_mesh(*mesh, "mesh")
+    check_faces(len(faces), options.max_faces, "mesh")
+    return vertices, faces, "mesh", None
+
+
+def dropped_info(look) -> dict:
+    """``{"dropped": [...]}``, what of the input's look was left out (``autorig.confine.Dropped``), for a rig's
+    ``info``; {} when nothing was, so that ordinary rigs stay as they were."""
+    return {"dropped": [d.as_dict() for d in look.dropped]} if look is not None and look.dropped else {}
 
 
 def _stage_timer(timings: dict[str, float]):

@@ -384,8 +384,12 @@ def test_a_broken_skeleton_file_stops_the_batch_before_rigging(tmp_path):
     assert "sub/autorig.toml" in result.stderr and "broken.json" in result.stderr
     assert "unknown parent 'pelvis'" in result.stderr
     assert not list((tmp_path / "out").rglob("*.glb")) and not (tmp_path / "out" / batch.MANIFEST_NAME).exists()
-    with pytest.raises(SkeletonError, match="unknown parent"):
+    # From the folder below, the config names a file outside the input folder: refused before it is read.
+    with pytest.raises(ConfigError, match="'..' leads outside the input's folder"):
         rig_folder(tmp_path / "in" / "sub", tmp_path / "out", skeleton=tmp_path / "in" / "broken.json")
+    with pytest.raises(SkeletonError, match="unknown parent"):
+        rig_folder(tmp_path / "in" / "sub", tmp_path / "out", skeleton=tmp_path / "in" / "broken.json",
+                   options=RigOptions(allow_outside_paths=True))
 
 
 # ------------------------------------------------------------------------------------------ without rigging

@@ -180,17 +180,20 @@ def test_a_look_that_cannot_be_read_is_left_out_and_the_shape_still_rigs(tmp_pat
     assert load_look(path, load_mesh(path)[1]) is None
 
 
-def test_a_gltf_whose_image_file_is_missing_keeps_its_colours(cube, tmp_path):
+def test_a_gltf_whose_image_file_is_missing_keeps_its_colours_and_its_other_textures(cube, tmp_path):
+    from autorig.confine import Dropped
     from autorig.exchange.gltf import gltf_bytes, read_gltf_scene
     document = json.loads(gltf_bytes(cube_rig(cube)))
     document["images"][0] = {"uri": "gone.png"}
     path = tmp_path / "missing_image.gltf"
     path.write_text(json.dumps(document))
     vertices, faces, look = read_gltf_scene(path)
-    assert look.images == [] and look.textures == []
+    assert [i.data for i in look.images] == [JPEG] and [t["source"] for t in look.textures] == [0]
+    assert look.dropped == [Dropped("image 0", "gone.png", "missing file")]
     assert [m["pbrMetallicRoughness"]["baseColorFactor"] for m in look.materials] == [
         [1, 1, 1, 1], [1, 1, 1, 1], [0, 0.5, 1, 0.5]]
-    assert all("baseColorTexture" not in m["pbrMetallicRoughness"] for m in look.materials)
+    painted, photo, plain = (m["pbrMetallicRoughness"] for m in look.materials)
+    assert "baseColorTexture" not in painted and photo["baseColorTexture"]["index"] == 0
 
 
 @pytest.fixture(scope="module")

@@ -10,6 +10,7 @@ The command line is ``autorig batch INPUT_DIR -o OUTPUT_DIR`` (``autorig batch -
 
     plan     what to rig: the meshes, their options from the command line and ``autorig.toml``, resume keys
     store    the manifest (resume), the outputs and thumbnails written atomically
+    lock     one batch at a time per output folder; what a killed one left half-written removed
     worker   one asset rigged from the bytes sent to it, and the local process pool
     cluster  the same on a Dask cluster
     report   the JSON and JUnit reports; review: the page to review the batch by eye
@@ -76,6 +77,22 @@ Resuming
     written without timings (they go to the report instead), so rigging the same asset again, here or on a
     cluster, gives byte-identical files.
 
+Crash safety
+    A batch killed at any moment (SIGKILL included) and run again ends with the outputs and report of a run
+    never interrupted (assets done before the kill reported ``skipped``, ``previous`` ``ok``): every output,
+    thumbnail and the manifest is written to a hidden temporary and renamed into place, the manifest only
+    ever names outputs already written, and the next run removes the temporaries a kill left
+    (``autorig.batch.lock``). Only one batch at a time writes into an output folder: a second one started
+    while the first runs stops at once with ``OutputError`` (exit 4), before any work.
+
+Files from the asset's own folder
+    Each asset may read only the files in its own folder and below it (``autorig.confine``): textures, MTL
+    files, glTF buffers and images named outside it are left out with a warning (``AssetResult.dropped``),
+    as is the asset itself when it is a symlink leading out of ``input_dir``, and a config's template and
+    skeleton files must lie inside ``input_dir``: unless ``options.allow_outside_paths``. Even then a
+    texture named by ``..`` is not sent along to the worker (only the asset's own folder travels); an
+    absolute path is read where the worker runs.
+
 Failures
     One failing asset never stops the batch: it gets status ``failed`` and its one-line error (so does one
     that asks for Pinocchio output with a skeleton of several roots, which that format cannot hold). An asset
@@ -110,6 +127,7 @@ from typing import Callable, Iterable, Iterator
 
 from ..errors import InputError, OutputError
 from .cluster import ClusterError, run_on_cluster
+from .lock import LOCK_NAME, output_lock, remove_temporaries
 from .plan import (CONFIG_NAMES, DEFAULT_EXTENSIONS, ConfigError, Plan, find_meshes, html_setting, input_files,
                    plan_assets)
 from .report import write_json_report, write_junit_report
@@ -120,7 +138,7 @@ from .worker import Job, cpu_count, require_thumbnails, run_locally
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
-           "THUMBNAILS_FOLDER", "EXIT_SOME_FAILED"]
+           "THUMBNAILS_FOLDER", "LOCK_NAME", "EXIT_SOME_FAILED"]
 
 
 def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, template: str = "biped",
@@ -174,7 +192,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     if output_dir.resolve() == input_dir.resolve():
         raise InputError(f"{output_dir}: the output folder must not be the input folder")
     if html is None:
-        html = html_setting(input_dir, output_dir)
+        html = html_setting(input_dir, output_dir, options.allow_outside_paths or skin_options.allow_outside_paths)
     if html is not None:
         require_thumbnails()
     for path in (report, junit, html):
@@ -185,70 +203,74 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     except OSError as e:
         raise OutputError(f"cannot write {output_dir}: {e.strerror or e}") from None
 
-    plans = plan_assets(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options, names)
-    manifest_path = output_dir / MANIFEST_NAME
-    manifest = read_manifest(manifest_path)
-    results: dict[str, AssetResult] = {}
-    todo: list[Plan] = []
-    for plan in plans:
-        kept = None if force else kept_result(plan, manifest.get(plan.rel), output_dir)
-        if kept:
-            results[plan.rel] = kept
-        else:
-            todo.append(plan)
-
-    if on_start:
-        on_start(len(todo), len(results))
-    for plan in plans:
-        if on_result and plan.rel in results:
-            on_result(results[plan.rel])
-
-    saved = time.monotonic()
-
-    def finished(plan: Plan, outcome: dict) -> None:
-        nonlocal saved
-        results[plan.rel] = result = store_outcome(plan, outcome, input_dir, output_dir, fmt, manifest,
-                                                   thumbnails=html is not None)
-        if on_result:
-            on_result(result)
-        if time.monotonic() - saved > MANIFEST_INTERVAL:
-            write_manifest(manifest_path, manifest)
-            saved = time.monotonic()
-
-    # Slowest first, so that the last worker does not finish long after the others: assets rigged before
-    # by their last time, those never timed (new ones, which may be big) before them by size. File size
-    # alone misjudges small but hard shapes (a 62-vertex rig 0.9 s, a spider 1.4 s, beside a 50k-face
-    # statue's 0.5 s).
-    def expected(plan: Plan):
-        seconds = manifest.get(plan.rel, {}).get("seconds")
-        return (0, -plan.size, plan.rel) if seconds is None else (1, -seconds, plan.rel)
-
-    order = sorted(todo, key=expected)
-
-    def jobs_of() -> Iterator[tuple[Plan, Job]]:
-        for plan in order:
-            try:
-                yield plan, Job(plan.rel, input_files(input_dir / plan.rel), plan.template, plan.skeleton,
-                                plan.options, fmt, names=names, thumbnails=html is not None)
-            except InputError as e:  # unreadable, or gone since it was found
-                finished(plan, {"status": "failed", "remember": False, "error": str(e),
-                                "error_type": "InputError"})
-
-    try:
-        if todo:
-            if scheduler:
-                run_on_cluster(scheduler, jobs_of(), finished)
+    # One batch at a time in an output folder; what a killed one left half-written goes first (batch/lock.py).
+    with output_lock(output_dir):
+        remove_temporaries(output_dir)
+        plans = plan_assets(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options, names)
+        manifest_path = output_dir / MANIFEST_NAME
+        manifest = read_manifest(manifest_path)
+        results: dict[str, AssetResult] = {}
+        todo: list[Plan] = []
+        for plan in plans:
+            kept = None if force else kept_result(plan, manifest.get(plan.rel), output_dir)
+            if kept:
+                results[plan.rel] = kept
             else:
-                run_locally(jobs or cpu_count(), jobs_of(), finished)
-    finally:
-        write_manifest(manifest_path, manifest)
+                todo.append(plan)
 
-    result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start)
-    for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
-        if path is not None:
-            make_parent(Path(path))
-            write(result, path)
-    return result
+        if on_start:
+            on_start(len(todo), len(results))
+        for plan in plans:
+            if on_result and plan.rel in results:
+                on_result(results[plan.rel])
+
+        saved = time.monotonic()
+
+        def finished(plan: Plan, outcome: dict) -> None:
+            nonlocal saved
+            results[plan.rel] = result = store_outcome(plan, outcome, input_dir, output_dir, fmt, manifest,
+                                                       thumbnails=html is not None)
+            if on_result:
+                on_result(result)
+            if time.monotonic() - saved > MANIFEST_INTERVAL:
+                write_manifest(manifest_path, manifest)
+                saved = time.monotonic()
+
+        # Slowest first, so that the last worker does not finish long after the others: assets rigged before
+        # by their last time, those never timed (new ones, which may be big) before them by size. File size
+        # alone misjudges small but hard shapes (a 62-vertex rig 0.9 s, a spider 1.4 s, beside a 50k-face
+        # statue's 0.5 s).
+        def expected(plan: Plan):
+            seconds = manifest.get(plan.rel, {}).get("seconds")
+            return (0, -plan.size, plan.rel) if seconds is None else (1, -seconds, plan.rel)
+
+        order = sorted(todo, key=expected)
+
+        def jobs_of() -> Iterator[tuple[Plan, Job]]:
+            for plan in order:
+                try:
+                    files = input_files(input_dir / plan.rel, input_dir, plan.options.allow_outside_paths)
+                    yield plan, Job(plan.rel, files, plan.template, plan.skeleton, plan.options, fmt, names=names,
+                                    thumbnails=html is not None)
+                except InputError as e:  # unreadable, or gone since it was found
+                    finished(plan, {"status": "failed", "remember": False, "error": str(e),
+                                    "error_type": "InputError"})
+
+        try:
+            if todo:
+                if scheduler:
+                    run_on_cluster(scheduler, jobs_of(), finished)
+                else:
+                    run_locally(jobs or cpu_count(), jobs_of(), finished)
+        finally:
+            write_manifest(manifest_path, manifest)
+
+        result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start)
+        for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
+            if path is not None:
+                make_parent(Path(path))
+                write(result, path)
+        return result
 
 
 def _write_review(result: BatchResult, path: str | os.PathLike) -> None:

@@ -84,7 +84,8 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
         base["template"] = templates.resolve(template, Path.cwd())
     for key in ("up", "front"):
         base[key] = _check_axis(base[key], key, "")
-    configs = _Configs(input_dir, templates, skeletons)
+    allow_outside = options.allow_outside_paths or skin_options.allow_outside_paths
+    configs = _Configs(input_dir, templates, skeletons, allow_outside)
 
     outputs = {rel: default_output_path(rel, fmt).as_posix() for rel in rels}
     clashes = Counter(outputs.values())
@@ -108,7 +109,7 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
                 scale = "auto" if parsed.kind == "bvh" else 1.0
             how = replace(skin_options, scale=scale if scale == "auto" else float(scale))
             label, up, front = f"skeleton {skeletons.name_of(effective['skeleton'])}", "", ""
-            settings = {"skeleton": skeletons.digest(effective["skeleton"]), "skin": asdict(how)}
+            settings = {"skeleton": skeletons.digest(effective["skeleton"]), "skin": {"scale": how.scale}}
         else:
             up, front = effective["up"], effective["front"]
             try:
@@ -130,17 +131,26 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
             settings = {"template": content, "up": up, "front": front,
                         **({"convention": convention} if convention is not None else {})}
         try:
-            files = input_files(input_dir / rel)
+            files = input_files(input_dir / rel, input_dir, allow_outside)
         except InputError:
             key, size = "", 0  # fails as that asset's error when it is read again to be rigged
         else:
             key = _digest({"input": {name: hashlib.sha256(data).hexdigest() for name, data in files.items()},
                            **settings, "format": fmt, "autorig": __version__,
-                           # only when asked, so that rigs from before --names still count as done
-                           **({"names": names} if names != "template" else {})})
+                           # only when asked, so that rigs from before --names (and these limits) still count
+                           # as done
+                           **({"names": names} if names != "template" else {}), **_limits_of(how)})
             size = sum(map(len, files.values()))
         plans.append(Plan(rel, outputs[rel], loaded, parsed, how, label, up, front, key, size))
     return plans
+
+
+def _limits_of(how) -> dict:
+    """The input limits of ``how`` (``RigOptions`` or ``SkinOptions``) that differ from the defaults: they
+    change what fails or is left out, so a resume key holds them."""
+    from ..limits import MAX_FACES
+    return {**({"max_faces": how.max_faces} if how.max_faces != MAX_FACES else {}),
+            **({"allow_outside_paths": True} if how.allow_outside_paths else {})}
 
 
 class _TemplateCache:
@@ -150,11 +160,17 @@ class _TemplateCache:
         self._loaded: dict[str, object] = {}
 
     @staticmethod
+    def is_file(spec: str) -> bool:
+        """Whether a template spec names a file (it ends in ``.json`` or holds a path separator), not a
+        built-in template."""
+        return spec.endswith(".json") or os.sep in spec or "/" in spec
+
+    @staticmethod
     def resolve(spec: str, folder: Path) -> str:
-        """A built-in name (or ``auto``) stays a name; a file (a spec ending in ``.json`` or holding a path
-        separator) becomes an absolute path, relative to ``folder``."""
+        """A built-in name (or ``auto``) stays a name; a file (``is_file``) becomes an absolute path, relative
+        to ``folder``."""
         spec = str(spec)
-        if spec.endswith(".json") or os.sep in spec or "/" in spec:
+        if _TemplateCache.is_file(spec):
             return str((folder / spec).resolve())
         return spec
 
@@ -216,8 +232,10 @@ class _SkeletonCache:
 class _Configs:
     """The per-folder config files under an input folder, and the options they give each asset."""
 
-    def __init__(self, root: Path, templates: _TemplateCache, skeletons: _SkeletonCache):
+    def __init__(self, root: Path, templates: _TemplateCache, skeletons: _SkeletonCache,
+                 allow_outside: bool = False):
         self.root = root
+        self._allow_outside = allow_outside
         self._templates = templates
         self._skeletons = skeletons
         # relative folder ("" for the root) -> (config file, its settings), or None when it has none
@@ -303,6 +321,13 @@ class _Configs:
                              for glob, entry in files.items()}
         return settings
 
+    def _confine(self, path: Path, key: str, name: str) -> None:
+        from ..confine import Refused, inside
+        try:
+            inside(path.parent, name, self.root, self._allow_outside)
+        except Refused as e:
+            raise ConfigError(f"{path}: {key}: {name}: {str(e).replace('asset', 'input')}") from None
+
     def _settings(self, data, path: Path, allowed, where: str) -> dict:
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: {where}expected a table of settings")
@@ -319,6 +344,10 @@ class _Configs:
                     raise ConfigError(f"{path}: {where}{key} must be a string, not {data[key]!r}")
                 settings[key] = (data[key] if key in ("template", "skeleton")
                                  else _check_axis(data[key], key, f"{path}: {where}"))
+        for key in ("template", "skeleton"):
+            # Configs are written by whoever filled the folder: the files they name stay inside it.
+            if key in settings and (key == "skeleton" or _TemplateCache.is_file(settings[key])):
+                self._confine(path, f"{where}{key}", settings[key])
         if "template" in settings:
             settings["template"] = self._templates.resolve(settings["template"], path.parent)
             try:
@@ -346,9 +375,19 @@ def _check_axis(spec: str, key: str, where: str) -> str:
     return spec.lower()
 
 
-def input_files(path: Path) -> dict[str, bytes]:
+def input_files(path: Path, root: Path | None = None, allow_outside: bool = False) -> dict[str, bytes]:
     """The bytes a mesh needs, by name relative to its folder: the file itself, first, and for a ``.gltf``
-    the external buffers and images it names that exist (a missing one is the loader's error to report)."""
+    the external buffers and images it names that exist (a missing one is the loader's error to report).
+    Only files in the mesh's folder or below it are sent (the worker's loader says what is left out), and
+    the mesh itself must lie in ``root`` (the input folder) unless ``allow_outside``: a symlink there that
+    leads out of it is an ``InputError``."""
+    if root is not None and not allow_outside and path.exists():  # (a dangling link: "cannot read" below)
+        from ..confine import Refused, inside
+        try:
+            inside(root, os.path.relpath(path, root), root)
+        except Refused:
+            raise InputError(f"{path}: a symlink leads outside the input folder {root} "
+                             f"(--allow-outside-paths to allow)") from None
     try:
         files = {path.name: path.read_bytes()}
     except OSError as e:
@@ -386,8 +425,16 @@ def _digest(value) -> str:
     return hashlib.sha256(json.dumps(value, sort_keys=True).encode()).hexdigest()
 
 
-def html_setting(input_dir: Path, output_dir: Path) -> Path | None:
+def html_setting(input_dir: Path, output_dir: Path, allow_outside: bool = False) -> Path | None:
     """The review page that ``input_dir``'s own config asks for (``html = "review.html"``, relative to the output
-    folder), else None."""
-    settings = _Configs(input_dir, _TemplateCache(), _SkeletonCache(input_dir)).batch_settings()
-    return output_dir / settings["html"] if "html" in settings else None
+    folder, and inside it unless ``allow_outside``), else None."""
+    settings = _Configs(input_dir, _TemplateCache(), _SkeletonCache(input_dir), allow_outside).batch_settings()
+    if "html" not in settings:
+        return None
+    from ..confine import Refused, inside
+    try:  # the config is the input folder's, written by others: it may not send a page out of the output folder
+        inside(output_dir, settings["html"], output_dir, allow_outside)
+    except Refused as e:
+        raise ConfigError(f"{input_dir}: html: {settings['html']}: {str(e).split(' (')[0].replace('asset', 'output')}"
+                          ) from None
+    return output_dir / settings["html"]

@@ -26,6 +26,8 @@ class AssetResult:
     seconds     wall time of the work on this asset, transfer included (0 when skipped)
     timings     {stage: seconds} of the pipeline and the ``write`` stage ({} when skipped)
     previous_timings  for ``skipped``: the ``timings`` of the run that rigged it, else {}
+    dropped     [{"what", "path", "reason"}] the parts of its look left out (``rig.info["dropped"]``: a texture
+                outside its folder, missing, not an image; see ``autorig.confine``), also for skipped assets
     thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
                 flat shape) relative to the output folder, when
                 a run with ``html`` drew them (kept for skipped assets), else {}
@@ -45,6 +47,7 @@ class AssetResult:
     confidence_parts: dict[str, float] = field(default_factory=dict)
     previous_timings: dict[str, float] = field(default_factory=dict)
     thumbnails: dict[str, str] = field(default_factory=dict)
+    dropped: list[dict] = field(default_factory=list)
 
     @property
     def failed(self) -> bool:

@@ -52,7 +52,8 @@ def kept_result(plan: Plan, entry: dict | None, output_dir: Path) -> AssetResult
                        template=plan.label, up=plan.up, front=plan.front, error=entry.get("error"),
                        error_type=entry.get("error_type"), confidence=entry.get("confidence"),
                        confidence_parts=entry.get("confidence_parts") or {},
-                       previous_timings=entry.get("timings") or {}, thumbnails=thumbnails)
+                       previous_timings=entry.get("timings") or {}, thumbnails=thumbnails,
+                       dropped=entry.get("dropped") or [])
 
 
 def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict,
@@ -63,7 +64,8 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                          template=plan.label, up=plan.up, front=plan.front, error=outcome.get("error"),
                          error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
                          confidence_parts=outcome.get("confidence_parts", {}),
-                         seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}))
+                         seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}),
+                         dropped=outcome.get("dropped", []))
     out = output_dir / plan.output
     _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
@@ -83,7 +85,8 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                               "confidence": result.confidence, "seconds": round(result.seconds, 3),
                               "confidence_parts": result.confidence_parts,
                               "timings": {stage: round(s, 4) for stage, s in result.timings.items()},
-                              "thumbnails": result.thumbnails}
+                              "thumbnails": result.thumbnails,
+                              **({"dropped": result.dropped} if result.dropped else {})}
     else:
         manifest.pop(plan.rel, None)
     return result

@@ -77,6 +77,7 @@ def rig_one(job: Job) -> dict:
             return {"status": "ok", "remember": True, "data": data, "timings": timings, "thumbnails": pictures,
                     "confidence": None if confidence is None else float(confidence),
                     "confidence_parts": dict(result.info.get("confidence_parts") or {}),
+                    "dropped": list(result.info.get("dropped", [])),
                     "seconds": time.perf_counter() - start}
         except AutorigError as e:
             error, error_type, remember = str(e), type(e).__name__, True

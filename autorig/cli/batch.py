@@ -4,7 +4,7 @@ from __future__ import annotations
 import click
 
 from .common import (AXES, EXIT_CODES, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP, VOXELS_HELP,
-                     common_options, parse_skeleton_scale)
+                     common_options, input_options, parse_skeleton_scale)
 
 # Must match autorig.batch.DEFAULT_EXTENSIONS (a test checks); repeated here so --help imports nothing.
 BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
@@ -52,13 +52,15 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
                    "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
-@click.option("-q", "--quiet", is_flag=True, help="Print only failed assets.")
+@click.option("-q", "--quiet", is_flag=True, help="Print only failed assets (and warnings).")
+@input_options
 @common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
                   skeleton_scale: str | None, convention: str | None, up: str, front: str, voxels: int,
                   max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, html: str | None, names: str, quiet: bool):
+                  junit: str | None, html: str | None, names: str, quiet: bool, max_faces: int,
+                  allow_outside_paths: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
     \b
@@ -95,12 +97,13 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
     from ..batch.progress import BatchProgress
     from ..pipeline import RigOptions, SkinOptions
 
+    limits = {"max_faces": max_faces, "allow_outside_paths": allow_outside_paths}
     progress = BatchProgress(quiet=quiet)
     try:
         result = rig_folder(input_dir, output_dir, template,
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments,
-                                       convention=convention),
-                            skeleton=skeleton_file, skin_options=SkinOptions(scale=scale), fmt=fmt,
+                                       convention=convention, **limits),
+                            skeleton=skeleton_file, skin_options=SkinOptions(scale=scale, **limits), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
                             junit=junit, html=html, names=names, on_start=progress.on_start,
                             on_result=progress.on_result)

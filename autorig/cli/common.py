@@ -135,6 +135,30 @@ def common_options(command):
     return version_option(command)
 
 
+MAX_FACES_HELP = ("Refuse (exit 2) a mesh of more triangles than this, before reading it; also refused: one too big "
+                  "for the memory available. [default: 5000000]")
+
+
+ALLOW_OUTSIDE_HELP = ("Let a mesh read textures, MTL files and buffers it names outside its own folder (absolute "
+                      "paths, '..', symlinks leading out, file: URIs). Off by default: such paths are refused with "
+                      "a warning and the rig is made without them.")
+
+
+def input_options(command):
+    """--max-faces and --allow-outside-paths, shared by 'autorig rig' and 'autorig batch'. The default must match
+    autorig.limits.MAX_FACES (a test checks); repeated so that --help need not import numpy."""
+    command = click.option("--allow-outside-paths", is_flag=True, help=ALLOW_OUTSIDE_HELP)(command)
+    return click.option("--max-faces", type=click.IntRange(min=1), default=5_000_000, metavar="N",
+                        help=MAX_FACES_HELP)(command)
+
+
+def warn_dropped(source: str, info: dict) -> None:
+    """One warning line on stderr for each part of the look a rig left out (``rig.info["dropped"]``)."""
+    from ..confine import dropped_line
+    for dropped in info.get("dropped", []):
+        _error_line(f"autorig: warning: {dropped_line(source, dropped)}")
+
+
 def parse_skeleton_scale(text: str | None) -> float | str | None:
     """``--skeleton-scale``'s value: None (not given), "auto" or a positive number, else a usage error."""
     if text is None:

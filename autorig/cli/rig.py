@@ -11,8 +11,8 @@ import click
 
 from ..quiet import quiet_libraries
 from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES,
-                     NAMES_HELP, VOXELS_HELP, check_output, common_options, parse_skeleton_scale, preview_title,
-                     refuse_input, require_matplotlib)
+                     NAMES_HELP, VOXELS_HELP, check_output, common_options, input_options, parse_skeleton_scale,
+                     preview_title, refuse_input, require_matplotlib, warn_dropped)
 
 
 @click.command("rig", epilog=EXIT_CODES, short_help="Rig a mesh (the default command).")
@@ -51,12 +51,14 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS,
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
+@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success (warnings still).")
+@input_options
 @common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, convention: str | None, up: str,
                 front: str,
                 strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
-                skeleton_scale: str | None, names: str, verbose: bool, quiet: bool):
+                skeleton_scale: str | None, names: str, verbose: bool, quiet: bool, max_faces: int,
+                allow_outside_paths: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
     --skeleton, compute skin weights for your own skeleton.
 
@@ -70,7 +72,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
 
     if skeleton_file is not None or skeleton_scale is not None:
         return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, names, verbose, quiet,
-                             start)
+                             start, {"max_faces": max_faces, "allow_outside_paths": allow_outside_paths})
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if skeleton != AUTO_TEMPLATE:
@@ -91,8 +93,10 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     from ..pipeline import RigOptions, rig
     with quiet_libraries(shown=verbose):
         _import_paused(RIG_MODULES, fmt)
-        result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels,
-                                                          max_segments=max_segments, convention=convention))
+        result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels, max_segments=max_segments,
+                                                          convention=convention, max_faces=max_faces,
+                                                          allow_outside_paths=allow_outside_paths))
+        warn_dropped(mesh, result.info)
         confidence = result.info["confidence"]
         if strict and confidence < STRICT_THRESHOLD:
             raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
@@ -143,8 +147,10 @@ def _import_paused(modules: tuple[str, ...], fmt: str) -> None:
 
 
 def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | None, output: str | None,
-                  fmt: str | None, preview: bool, names: str, verbose: bool, quiet: bool, start: float) -> None:
-    """``autorig MESH --skeleton FILE``: weights for the user's skeleton (``autorig.pipeline.skin``)."""
+                  fmt: str | None, preview: bool, names: str, verbose: bool, quiet: bool, start: float,
+                  limits: dict) -> None:
+    """``autorig MESH --skeleton FILE``: weights for the user's skeleton (``autorig.pipeline.skin``);
+    ``limits``: the ``SkinOptions``' max_faces and allow_outside_paths."""
     ctx = click.get_current_context()
     if skeleton_file is None:
         raise click.UsageError("--skeleton-scale applies to --skeleton")
@@ -171,7 +177,8 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     from ..pipeline import SkinOptions, skin
     with quiet_libraries(shown=verbose):
         _import_paused(SKIN_MODULES, fmt)
-        result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale))
+        result = skin(str(mesh_path), skeleton, SkinOptions(scale=scale, **limits))
+        warn_dropped(mesh, result.info)
         preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 

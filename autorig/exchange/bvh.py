@@ -10,6 +10,7 @@ which is how CMU, mixamo and Blender's exporter all write them).
 """
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -134,7 +135,10 @@ def parse_bvh(text: str, name: str = "BVH") -> Motion:
         reader.expect("OFFSET")
         offsets.append([reader.number() for _ in range(3)])
         reader.expect("CHANNELS")
-        count = int(reader.number())
+        count = reader.number()
+        if not (0 <= count <= len(_CHANNELS) and count == int(count)):
+            raise reader.error(f"a joint has 0 to {len(_CHANNELS)} channels, not {count:g}")
+        count = int(count)
         listed = [reader.next() for _ in range(count)]
         for channel in listed:
             if channel not in _CHANNELS:
@@ -156,7 +160,10 @@ def parse_bvh(text: str, name: str = "BVH") -> Motion:
                 raise reader.error(f"expected JOINT, End Site or }} but found {word!r}")
 
     reader.expect("ROOT")
-    joint(-1)
+    try:
+        joint(-1)
+    except RecursionError:  # a hierarchy thousands of joints deep: no skeleton, and Python's stack would end
+        raise InputError(f"{name}: the hierarchy nests too deeply") from None
     if reader.at < len(tokens):
         raise reader.error(f"unexpected {tokens[reader.at][0]!r} after the hierarchy")
     return Motion(names=names, parents=np.asarray(parents, dtype=np.int64),
@@ -180,7 +187,7 @@ def _motion(lines: list[str], motion_line: int, width: int, name: str) -> dict:
             raise InputError(f"{name}: line {at + 1}: {match.group(1)!r} is not a number") from None
         at += 1
     count, frame_time = header["Frames"], header["Frame Time"]
-    if count < 0 or count != int(count) or not frame_time > 0:
+    if not math.isfinite(count) or count < 0 or count != int(count) or not frame_time > 0:
         raise InputError(f"{name}: bad frame count {count:g} or frame time {frame_time:g}")
     count = int(count)
     try:

@@ -38,6 +38,7 @@ from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, M
                        Skin)
 
 from ..errors import InputError
+from ..limits import check_faces
 from ..result import Look, Rig
 from ..version import __version__
 from .arrays import check_rig, parents_first
@@ -215,6 +216,9 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
             # Which input vertex each seam copy (output vertex V, V+1, ...) stands for; see Look.
             scene_extras.update(autorig_input_vertices=len(vertices),
                                 autorig_copies_of=[int(v) for v in copy[len(vertices):]])
+    if rig.info.get("dropped"):
+        # What of the input's look could not come along (autorig.confine), for whoever opens the file.
+        scene_extras["autorig_dropped"] = rig.info["dropped"]
     doc.scenes[0].nodes = roots + mesh_nodes
     doc.scenes[0].extras = scene_extras or None
     doc.buffers[0].byteLength = len(blob)
@@ -280,19 +284,23 @@ def _read(path: Path, data: bytes) -> Rig:
                look=look_of(doc, buffers, gathered, mesh_nodes, path) if _has_look(doc, gathered) else None)
 
 
-def read_gltf_scene(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, Look | None]:
+def read_gltf_scene(path: str | os.PathLike, allow_outside: bool = False, max_faces: int | None = None,
+                    look: bool = True) -> tuple[np.ndarray, np.ndarray, Look | None]:
     """A glTF or GLB file as a mesh to rig: (vertices [V, 3], faces [F, 3], its ``Look`` or None).
 
     The scene is flattened: each mesh node's primitives are moved by the node's world transform, and the
     nodes are taken in order of their names (a node without one is called by its index), ties in node order;
     a node's primitives in their order, those sharing their vertex accessors sharing their vertices. Points
-    and lines are ignored. Raises ``InputError`` (one line naming the file) for anything unreadable.
+    and lines are ignored. Raises ``InputError`` (one line naming the file) for anything unreadable, for
+    buffer files outside its folder unless ``allow_outside`` (``autorig.confine``), and for more triangles
+    than ``max_faces`` (None: no limit) or than the memory holds, checked before they are read. Without
+    ``look`` the look is not read (None).
     """
     path = Path(path)
     data = file_bytes(path)
     try:
         doc = parse_document(data)
-        buffers = [buffer_data(doc, b, path) for b in doc.buffers or []]
+        buffers = [buffer_data(doc, b, path, allow_outside) for b in doc.buffers or []]
         nodes = doc.nodes or []
         node_parent = node_parents(nodes)
         world = world_matrices(nodes, node_parent)
@@ -301,14 +309,15 @@ def read_gltf_scene(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, Lo
                             key=lambda i: (nodes[i].name or str(i), i))
         if not mesh_nodes:
             raise InputError(f"{path}: no mesh found (empty, or not a valid glTF file)")
+        check_faces(_declared_triangles(doc, mesh_nodes), max_faces, str(path))
         try:
             gathered = gather_primitives(doc, buffers, mesh_nodes, world[mesh_nodes], 0, read_accessor)
         except ValueError as e:
             if str(e) == "no triangles":
                 raise InputError(f"{path}: a point cloud or lines (no faces); autorig needs a surface mesh") from None
             raise
-        look = (look_of(doc, buffers, gathered, mesh_nodes, path) if _has_look(doc, gathered, normals=True)
-                else None)
+        look = (look_of(doc, buffers, gathered, mesh_nodes, path, allow_outside=allow_outside)
+                if look and _has_look(doc, gathered, normals=True) else None)
     except InputError:
         raise
     except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
@@ -316,6 +325,17 @@ def read_gltf_scene(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, Lo
         message = " ".join(str(e).split())[:150] or type(e).__name__
         raise InputError(f"{path}: cannot read as glTF ({message})") from None
     return gathered.vertices, gathered.faces, look
+
+
+def _declared_triangles(doc: GLTF2, mesh_nodes: list[int]) -> int:
+    """The triangles the mesh nodes' triangle primitives declare (their index or vertex counts / 3)."""
+    total = 0
+    for node in mesh_nodes:
+        for primitive in doc.meshes[doc.nodes[node].mesh].primitives or []:
+            if primitive.mode in (None, pygltflib.TRIANGLES):
+                source = primitive.indices if primitive.indices is not None else primitive.attributes.POSITION
+                total += int(doc.accessors[source].count) // 3
+    return total
 
 
 def _scene_nodes(doc: GLTF2, node_parent: np.ndarray) -> list[int]:

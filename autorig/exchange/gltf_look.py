@@ -21,7 +21,9 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2, Image as GltfImage, Material, Mesh, Node, Primitive, Sampler, Texture
 
+from ..confine import Dropped, Refused, image_problem, uri_file
 from ..result import Image, Look
+from .gltf_parts import data_uri_bytes
 
 __all__ = ["Gathered", "gather_primitives", "look_of", "write_look", "image_mime_type"]
 
@@ -143,19 +145,32 @@ def _move(block: dict, matrix: np.ndarray) -> None:
 
 
 def look_of(doc: GLTF2, buffers: list[bytes], gathered: Gathered, mesh_nodes: list[int], path: Path,
-            keep_extras: bool = True) -> Look:
+            keep_extras: bool = True, allow_outside: bool = False) -> Look:
     """The :class:`Look` of ``gathered`` (from ``gather_primitives`` over ``mesh_nodes``) and ``doc``'s
-    materials, textures, samplers and images (read from ``path``'s folder when they are files)."""
+    materials, textures, samplers and images (read from ``path``'s folder when they are files, confined to it
+    unless ``allow_outside``: ``autorig.confine``). An image that cannot be had or is not an image is left out
+    with the textures that show it (the materials keep their colours), and recorded in ``Look.dropped``."""
     document = json.loads(doc.to_json())
-    try:
-        images = [Image(data=_image_bytes(doc, buffers, image, path), mime_type="", name=image.name or "")
-                  for image in doc.images or []]
-    except (OSError, ValueError):
-        # An image file that is not there: the materials keep their colours, without textures.
-        images, document["textures"] = [], []
-        document["materials"] = [_without_textures(m) for m in document.get("materials", [])]
-    for image, source in zip(images, doc.images or []):
-        image.mime_type = source.mimeType or image_mime_type(image.data)
+    images, kept, dropped = [], [], []
+    for i, source in enumerate(doc.images or []):
+        what = f"image {i}" + (f" {source.name!r}" if source.name else "")
+        written = source.uri if isinstance(source.uri, str) else f"buffer view {source.bufferView}"
+        try:
+            data = _image_bytes(doc, buffers, source, path, allow_outside)
+            problem = image_problem(data, written if source.uri else "", extensions=True)
+        except Refused as e:
+            problem = str(e)
+        except OSError as e:
+            problem = "missing file" if isinstance(e, FileNotFoundError) else f"cannot read ({e.strerror or e})"
+        except (ValueError, IndexError, TypeError, AttributeError) as e:
+            problem = f"cannot read ({' '.join(str(e).split())[:100] or type(e).__name__})"
+        if problem:
+            dropped.append(Dropped(what, written if len(written) <= 200 else written[:60] + "...", problem))
+            continue
+        images.append(Image(data=data, mime_type=source.mimeType or image_mime_type(data), name=source.name or ""))
+        kept.append(i)
+    if dropped:
+        _keep_images(document, kept)
     parts = []
     for i in mesh_nodes:
         node = doc.nodes[i]
@@ -168,17 +183,48 @@ def look_of(doc: GLTF2, buffers: list[bytes], gathered: Gathered, mesh_nodes: li
                 colors=gathered.colors, normals=gathered.normals, face_material=gathered.face_material,
                 face_part=gathered.face_part, parts=parts, materials=document.get("materials", []),
                 textures=document.get("textures", []), samplers=document.get("samplers", []), images=images,
-                extras={k: v for k, v in extras.items() if not k.startswith("autorig_")})
+                extras={k: v for k, v in extras.items() if not k.startswith("autorig_")}, dropped=dropped)
 
 
-def _without_textures(item):
-    """A material's JSON without its texture references (``baseColorTexture``, ``normalTexture``, ...)."""
-    if isinstance(item, dict):
-        return {k: _without_textures(v) for k, v in item.items() if not k.endswith("Texture")}
-    return item
+def _keep_images(document: dict, kept: list[int]) -> None:
+    """Renumber ``document``'s textures for the images ``kept`` (old indices, in order): textures showing
+    another image go (a ``source`` in a texture's extensions counts too), and so do the materials' references
+    to them."""
+    image_of = {old: new for new, old in enumerate(kept)}
+    texture_of, textures = {}, []
+    for t, texture in enumerate(document.get("textures") or []):
+        holders = [texture] + [e for e in (texture.get("extensions") or {}).values() if isinstance(e, dict)]
+        sources = [h["source"] for h in holders if "source" in h]
+        if not all(isinstance(source, int) and source in image_of for source in sources):
+            continue
+        for holder in holders:
+            if "source" in holder:
+                holder["source"] = image_of[holder["source"]]
+        texture_of[t] = len(textures)
+        textures.append(texture)
+    document["textures"] = textures
+    document["materials"] = [_renumbered(m, texture_of) for m in document.get("materials") or []]
 
 
-def _image_bytes(doc: GLTF2, buffers: list[bytes], image: GltfImage, path: Path) -> bytes:
+def _renumbered(item, texture_of: dict[int, int]):
+    """A material's JSON with its texture references (``baseColorTexture``, ``normalTexture``, ...) pointing at
+    the renumbered textures, and those to textures that went removed."""
+    if isinstance(item, list):
+        return [_renumbered(v, texture_of) for v in item]
+    if not isinstance(item, dict):
+        return item
+    renumbered = {}
+    for key, value in item.items():
+        if key.endswith("Texture") and isinstance(value, dict) and "index" in value:
+            index = value["index"]
+            if not isinstance(index, int) or index not in texture_of:
+                continue
+            value = {**value, "index": texture_of[index]}
+        renumbered[key] = _renumbered(value, texture_of)
+    return renumbered
+
+
+def _image_bytes(doc: GLTF2, buffers: list[bytes], image: GltfImage, path: Path, allow_outside: bool) -> bytes:
     if image.bufferView is not None:
         view = doc.bufferViews[image.bufferView]
         start = view.byteOffset or 0
@@ -186,8 +232,8 @@ def _image_bytes(doc: GLTF2, buffers: list[bytes], image: GltfImage, path: Path)
     if image.uri is None:
         raise ValueError("an image has neither a bufferView nor a uri")
     if image.uri.startswith("data:"):
-        return base64.b64decode(image.uri.split(",", 1)[1])
-    return (path.parent / unquote(image.uri)).read_bytes()
+        return data_uri_bytes(image.uri)
+    return uri_file(image.uri, path.parent, path.parent, allow_outside).read_bytes()
 
 
 def image_mime_type(data: bytes) -> str:

@@ -13,7 +13,9 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2, Buffer, Node
 
+from ..confine import Refused, uri_file
 from ..errors import InputError
+from ..limits import check_memory
 
 _COMPONENT_DTYPES = {
     pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
@@ -52,10 +54,13 @@ def parse_document(data: bytes) -> "_Object":
                 blob = data[start + 8:start + 8 + size]
     else:
         text = data.decode("utf-8")
-    document = json.loads(text)
-    if not isinstance(document, dict):
-        raise ValueError("the JSON is not an object")
-    doc = _objects(document)
+    try:
+        document = json.loads(text)
+        if not isinstance(document, dict):
+            raise ValueError("the JSON is not an object")
+        doc = _objects(document)
+    except RecursionError:
+        raise ValueError("the JSON nests too deeply") from None
     doc.binary_blob = lambda: blob
     doc.to_json = lambda: text
     return doc
@@ -104,15 +109,35 @@ def joint_parents(node_parent: np.ndarray, skin_joints: list[int]) -> np.ndarray
     return parents
 
 
-def buffer_data(doc: GLTF2, buffer: Buffer, path: Path) -> bytes:
+def buffer_data(doc: GLTF2, buffer: Buffer, path: Path, allow_outside: bool = False) -> bytes:
+    """The bytes of ``buffer``: the GLB's binary chunk, a data: URI's, or a file's beside ``path`` (confined to
+    its folder unless ``allow_outside``: ``autorig.confine``), at most ``byteLength`` of them."""
     if buffer.uri is None:
         blob = doc.binary_blob()
         if blob is None:
             raise ValueError("a buffer has no uri and there is no GLB binary chunk")
         return bytes(blob)
+    if not isinstance(buffer.uri, str):
+        raise ValueError("a buffer's uri is not a string")
     if buffer.uri.startswith("data:"):
-        return base64.b64decode(buffer.uri.split(",", 1)[1])
-    return (path.parent / unquote(buffer.uri)).read_bytes()
+        return data_uri_bytes(buffer.uri)
+    try:
+        file = uri_file(buffer.uri, path.parent, path.parent, allow_outside)
+    except Refused as e:
+        shown = buffer.uri if len(buffer.uri) <= 200 else buffer.uri[:60] + "..."
+        raise InputError(f"{path}: buffer {shown}: {e}") from None
+    if not file.is_file():  # a FIFO or a device would never end
+        raise ValueError(f"buffer {buffer.uri} is not a file")
+    length = buffer.byteLength if isinstance(buffer.byteLength, int) and buffer.byteLength >= 0 else -1
+    with open(file, "rb") as f:
+        return f.read(length)
+
+
+def data_uri_bytes(uri: str) -> bytes:
+    """The bytes of a base64 ``data:`` URI."""
+    if "," not in uri:
+        raise ValueError("a data: URI without a comma")
+    return base64.b64decode(uri.split(",", 1)[1])
 
 
 def read_accessor(doc: GLTF2, buffers: list[bytes], index: int) -> np.ndarray:
@@ -121,6 +146,8 @@ def read_accessor(doc: GLTF2, buffers: list[bytes], index: int) -> np.ndarray:
     dtype = np.dtype(_COMPONENT_DTYPES[accessor.componentType]).newbyteorder("<")
     width = _TYPE_SIZES[accessor.type]
     if accessor.bufferView is None:
+        # All zeros, nothing in the file to hold them: only the memory says how many is too many.
+        check_memory(accessor.count * width * 8, f"accessor {index}'s {accessor.count:,} zeros", "glTF")
         values = np.zeros((accessor.count, width), dtype=dtype)
     else:
         values = _view_array(doc, buffers, accessor.bufferView, accessor.byteOffset or 0, dtype,
@@ -145,8 +172,12 @@ def _view_array(doc: GLTF2, buffers: list[bytes], view_index: int, offset: int, 
     view = doc.bufferViews[view_index]
     stride = view.byteStride or dtype.itemsize * width
     start = (view.byteOffset or 0) + offset
+    if count < 0 or offset < 0 or stride < 0 or (view.byteOffset or 0) < 0:
+        raise ValueError(f"a negative count, offset or stride in buffer view {view_index}")
     if count and start + (count - 1) * stride + dtype.itemsize * width > (view.byteOffset or 0) + view.byteLength:
         raise ValueError(f"an accessor reads past the end of buffer view {view_index}")
+    if (view.byteOffset or 0) + view.byteLength > len(buffers[view.buffer]):
+        raise ValueError(f"buffer view {view_index} runs past the end of buffer {view.buffer}")
     return np.ndarray((count, width), dtype=dtype, buffer=buffers[view.buffer], offset=start,
                       strides=(stride, dtype.itemsize)).copy()
 
