@@ -180,3 +180,26 @@ def test_an_example_s_source_and_the_default_convention(tmp_path):
     conventions = {"studio": {"examples": 8}, "engine": {"examples": 3}}
     assert default_convention(conventions, None) == "studio"
     assert default_convention(conventions, "engine") == "engine"
+
+
+def test_a_studio_learning_from_its_own_rigs_gets_its_own_convention(tmp_path):
+    """``autorig learn studio/ --learn ...,conventions``: the studio's .glb files are one source, named by their
+    folder, and the learned template rigs in it unless told."""
+    from autorig.exchange import write_rig
+    template = load_template("biped")
+    studio = tmp_path / "northwind"
+    studio.mkdir()
+    for pose, proportions in (("t", "adult"), ("a", "heavy"), ("down", "tall")):
+        sample = mannequin(pose=pose, proportions=proportions)
+        names = [n for n in template.names if n in sample.joints]
+        parent = {n: template.names[p] if p >= 0 else None for n, p in zip(template.names, template.parents)}
+        skeleton = tmp_path / f"{pose}.json"
+        skeleton.write_text(json.dumps({"joints": [{"name": n, "parent": parent[n],
+                                                    "position": [float(v) for v in sample.joints[n]]}
+                                                   for n in names]}))
+        write_rig(autorig.skin((sample.vertices, sample.faces), skeleton), studio / f"hero_{pose}.glb", "glb")
+    out = tmp_path / "northwind.json"
+    learned = run_cli("learn", studio, "--learn", "proportions,placement,conventions,confidence", "-o", out, "-q")
+    assert learned.returncode == 0, learned.stderr
+    assert load_template(out).default_convention == "northwind"
+    assert run_cli("conventions", "-t", out).stdout.startswith("* northwind")

@@ -343,3 +343,28 @@ def test_corpus_folders_learn_the_base_templates_joints(tmp_path):
     # Learned proportions, not the base's: the corpus's shoulders sit high, near the neck.
     t = dict(zip(template.names, template.positions))
     assert t["left_shoulder"][1] > 0.75 and abs(t["left_shoulder"][0] + t["right_shoulder"][0]) < 1e-9
+
+
+def test_rigs_whose_skeletons_differ_by_a_joint_learn_or_fail_in_one_line(tmp_path):
+    """One studio file with a joint the others lack (an extra spine joint between the hips and the spine) is
+    not a crash: the learner keeps the joints all share, or says in one line why it cannot."""
+    template = load_template("biped")
+    folder = tmp_path / "studio"
+    folder.mkdir()
+    for n, (pose, proportions) in enumerate((("t", "adult"), ("a", "heavy"), ("down", "tall"))):
+        sample = mannequin(pose=pose, proportions=proportions)
+        parent = {name: template.names[p] if p >= 0 else None for name, p in zip(template.names, template.parents)}
+        joints = [{"name": name, "parent": parent[name], "position": [float(v) for v in sample.joints[name]]}
+                  for name in template.names if name in sample.joints]
+        if n == 0:
+            extra = (sample.joints["hips"] + sample.joints["spine"]) / 2
+            joints.insert(1, {"name": "spine0", "parent": "hips", "position": [float(v) for v in extra]})
+            next(j for j in joints if j["name"] == "spine")["parent"] = "spine0"
+        skeleton = tmp_path / f"{pose}.json"
+        skeleton.write_text(json.dumps({"joints": joints}))
+        write_rig(autorig.skin((sample.vertices, sample.faces), skeleton), folder / f"{n}_{pose}.glb", "glb")
+    done = run_cli("learn", folder, "--learn", "proportions", "-o", tmp_path / "t.json", "-q")
+    assert done.returncode in (0, 2), done.stderr
+    assert "Traceback" not in done.stderr and "internal error" not in done.stderr
+    if done.returncode == 2:
+        assert len(done.stderr.strip().splitlines()) == 1

@@ -95,7 +95,7 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     confidence = {}
     if "placement" in parts or "confidence" in parts:
         template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say,
-                                           parts, conventions if "conventions" in parts else None, default)
+                                           parts, (conventions or {}) if "conventions" in parts else None, default)
     spread = np.sqrt(np.mean(np.sum((per_example - template.positions) ** 2, axis=2), axis=0))
     record = {"examples": [e.name for e in examples], "base": base.name if base is not None else None,
               "sources": {source: [e.name for e in examples if e.source == source]

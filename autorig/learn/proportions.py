@@ -61,9 +61,10 @@ def skeleton_of_examples(examples: list[Example]) -> Skeleton:
                      else None) for n in common}
     kept = set()
     for n in carrying:
-        while n is not None and n not in kept:
+        # An ancestor some examples lack is no joint of the shared skeleton: the walk stops below it.
+        while n in parent_of and n not in kept:
             kept.add(n)
-            n = parent_of.get(n)
+            n = parent_of[n]
     roots = [n for n in kept if parent_of[n] is None or parent_of[n] not in kept]
     if len(roots) != 1:
         raise InputError(f"the weighted joints of the examples hang from {len(roots)} roots ({sorted(roots)}); "
