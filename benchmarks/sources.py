@@ -179,6 +179,9 @@ def main(argv=None) -> int:
     parser.add_argument("--like", type=Path, default=ROOT / "templates" / "biped.json",
                         help="learn what this template learned (its learned_from record; default the built-in biped)")
     args = parser.parse_args(argv)
+    if not args.corpus.is_dir():
+        print(f"no corpus at {args.corpus}: only the shared sources are held out "
+              f"(python data/corpus/makehuman.py and data/corpus/lugaru.py build the others)", file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
         out_dir = args.out or Path(tmp)
         out_dir.mkdir(parents=True, exist_ok=True)
