@@ -77,9 +77,11 @@ def score_glb(score, gt: dict, path: Path) -> dict:
 
 
 def line(result: dict) -> str:
-    """One line: limbs mean / worst (joint), trunk worst (joint)."""
-    return (f"limbs {result['limbs_mean']:4.1f} / {result['limbs_worst']:4.1f} ({result['limbs_worst_joint']}), "
-            f"trunk {result['trunk_worst']:4.1f} ({result['trunk_worst_joint']})")
+    """One line: limbs mean / worst (joint), trunk worst (joint); a ground truth without them gives '-'."""
+    def percent(key):
+        return "   -" if result[key] is None else f"{result[key]:4.1f}"
+    return (f"limbs {percent('limbs_mean')} / {percent('limbs_worst')} ({result['limbs_worst_joint']}), "
+            f"trunk {percent('trunk_worst')} ({result['trunk_worst_joint']})")
 
 
 def main(argv=None) -> int:

@@ -90,3 +90,11 @@ def test_sliding_along_the_trunk_is_an_error_to_the_strict_score():
     strict = score.joint_errors(gt, animal())
     assert strict["per_key"]["spine"] == pytest.approx(0.5 / HEIGHT)
     assert convention_free(score.gt_template_joints(gt), animal(), HEIGHT)["trunk_worst"] < 1e-9
+
+
+def test_a_truth_without_trunk_joints_has_no_trunk_score():
+    from quadruped_score import line
+    truth = {key: p for key, p in animal().items() if key not in TRUNK}
+    result = convention_free(truth, animal(), HEIGHT)
+    assert result["trunk"] == {} and result["trunk_worst"] is None
+    assert "trunk    - (None)" in line(result)
