@@ -6,7 +6,9 @@ For each real character in ``shared/data/rigged`` that has a template map, the r
 (``autorig MESH --template T [--front AXIS] -o OUT.glb``) and the .glb is scored by ``shared/tools/score.py``,
 so the numbers mean what the shared scorer means: joint error as a fraction of the height (mean and worst
 over the template joints the ground truth maps) and skin-weight agreement on the dominant joint. The
-mannequins (``autorig.samples``) know their exact skeleton, so they are scored on joints only.
+mannequins (``autorig.samples``) know their exact skeleton, so they are scored on joints only. A quadruped is
+also scored apart from its artist's trunk convention (``benchmarks/quadruped_score.py``: limbs as points, the
+artist's hips, spine, chest and neck by their distance from the rig's trunk line), on a line of its own.
 
 With ``--cv``, also the cross-validation, each kind learned as ``templates/retrain.sh`` learns it: the biped
 leave-one-source-out (``benchmarks/sources.py``: every source of its examples held out whole, 0 A.D. by group,
@@ -72,7 +74,9 @@ def side_checks(names, joints, truth, vertices, faces):
 
 def shared_rows(shared: Path, out_dir: Path):
     sys.path.insert(0, str(shared / "tools"))
+    sys.path.insert(0, str(ROOT / "benchmarks"))
     import score
+    import quadruped_score
     from autorig.exchange.gltf import read_glb
     rows = []
     for name, template, flags, reference in SHARED:
@@ -91,7 +95,10 @@ def shared_rows(shared: Path, out_dir: Path):
         rows.append({"model": name, "template": template, "mean": 100 * result["joints"]["mean"],
                      "max": 100 * result["joints"]["max"], "top1": result["weights"]["top1_pct"],
                      "l1": result["weights"]["l1_mean"], "inside": inside, "swapped": swapped,
-                     "seconds": seconds, "confidence": confidence, "reference": reference})
+                     "seconds": seconds, "confidence": confidence, "reference": reference,
+                     # the trunk joints are each species' convention: also scored apart from it (issue 26)
+                     "convention_free": (quadruped_score.line(quadruped_score.score_glb(score, gt, out))
+                                         if template == "quadruped" else None)})
     return rows
 
 
@@ -140,6 +147,9 @@ def main(argv=None) -> int:
         ref = "{:.1f} / {:.1f} / {:.0f}".format(*r["reference"]) if r["reference"] else ""
         print(f"{r['model']:24s} {r['template']:9s} {r['mean']:10.1f} / {r['max']:5.1f}    {top1:>15s} {l1:>6s} "
               f"{str(r['inside']):>6s} {str(not r['swapped']):>6s} {r['confidence']:5.2f} {r['seconds']:7.2f}   {ref}")
+    for r in rows:
+        if r.get("convention_free"):
+            print(f"{r['model']} apart from the trunk convention (% of height): {r['convention_free']}")
     if cv is not None:
         for future in cv:
             print(future.result())

@@ -15,6 +15,9 @@ Reported per kind: mean and worst joint error (% of the height), weight top-1 ag
 axes gave the same rig (every joint within 1 % of the height), whether they are found with the mesh turned to
 face -z and turned Z-up (facing -y) as other tools write files, and the confidence against the true error
 (rigs with their worst joint more than 20 % off should score below 0.5, those within 10 % at 0.5 or above).
+Quadrupeds are also scored apart from their species' trunk convention (``benchmarks/quadruped_score.py``: limbs
+as points, the artist's hips, spine, chest and neck by their distance from the rig's trunk line), per character
+before and after (axes given) and summed up against issue 26's targets.
 """
 from __future__ import annotations
 
@@ -26,6 +29,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+import quadruped_score
 
 ROOT = Path(__file__).resolve().parents[1]
 HANDSET = ROOT / "templates" / "handset"
@@ -86,9 +91,9 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
                     ("before", handset, autorig.RigOptions(up="y", front="z")),
                     ("after", template_path, autorig.RigOptions(up="y", front="z")),
                     ("after_auto", template_path, autorig.RigOptions())):
+                glb = out_dir / f"{folder.name}_{label}.glb"
                 try:
-                    rig, result = rig_and_score(score, gt, folder / "mesh.obj", template, options,
-                                                out_dir / f"{folder.name}_{label}.glb")
+                    rig, result = rig_and_score(score, gt, folder / "mesh.obj", template, options, glb)
                 except Exception as e:    # a rig that fails is a result too
                     row[label] = {"error": str(e)}
                     continue
@@ -96,6 +101,8 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
                               "worst": result["joints"]["worst"][0][0], "top1": result["weights"]["top1_pct"],
                               "confidence": rig.info["confidence"], "front": rig.info["front"],
                               "up": rig.info["up"], "joints": rig.joints}
+                if kind == "quadruped":    # also apart from the species' trunk convention (issue 26)
+                    row[label]["free"] = quadruped_score.score_glb(score, gt, glb)
             a = row.get("after", {})
             row["same_axes"] = _same(a, row.get("after_auto", {}), gt["height"])
             # The same character as files in other conventions: detection must find the same rig there.
@@ -131,8 +138,10 @@ def _cell(r: dict) -> str:
 
 def _line(row: dict) -> str:
     wrong = "".join(f" {label}:WRONG" for label in TURNS if not row.get(label, True))
+    free = "".join(f" | {label} {quadruped_score.line(row[label]['free'])}" for label in ("before", "after")
+                   if "free" in row.get(label, {}))
     return (f"{row['model']:38s} {_cell(row.get('before', {'error': ''}))} | {_cell(row.get('after', {'error': ''}))} | "
-            f"{_cell(row.get('after_auto', {'error': ''}))} {'same' if row['same_axes'] else 'DIFFERENT'}{wrong}")
+            f"{_cell(row.get('after_auto', {'error': ''}))} {'same' if row['same_axes'] else 'DIFFERENT'}{wrong}{free}")
 
 
 def summary(kind: str, rows: list[dict]) -> str:
@@ -148,11 +157,26 @@ def summary(kind: str, rows: list[dict]) -> str:
                      f"worst joint {maxes.max():5.1f} %  (median {np.median(maxes):4.1f})  top-1 "
                      f"{np.mean([r['top1'] for r in ok]):5.1f} %  failed {len(rows) - len(ok)}  | confidence: "
                      f"{confidence_against_error(maxes, conf)}")
+    lines += [free_summary(label, [r[label]["free"] for r in rows if "free" in r.get(label, {})])
+              for label in ("before", "after") if any("free" in r.get(label, {}) for r in rows)]
     n = len(rows)
     lines.append(f"  detected axes give the same rig: {sum(r['same_axes'] for r in rows)}/{n}; axes found for the mesh "
                  f"turned to face -z: {sum(r.get('facing_back', False) for r in rows)}/{n}; Z up, facing -y: "
                  f"{sum(r.get('z_up', False) for r in rows)}/{n}")
     return "\n".join(lines)
+
+
+def free_summary(label: str, scores: list[dict]) -> str:
+    """The rigs' ``quadruped_score.convention_free`` scores against issue 26's targets: limbs mean <= 5 %, every
+    rig's worst limb joint <= 12 %, the artist's trunk joints within 6 % of the rig's trunk line."""
+    means = np.array([s["limbs_mean"] for s in scores])
+    worsts = np.array([s["limbs_worst"] for s in scores])
+    trunks = np.array([s["trunk_worst"] for s in scores])
+    return (f"  {label:10s} apart from the trunk convention: limbs mean {means.mean():5.1f} %  (worst character's "
+            f"mean {means.max():5.1f})  worst limb joint {worsts.max():5.1f} %  (median {np.median(worsts):4.1f}; "
+            f"{int(np.sum(worsts <= 12))}/{len(scores)} within 12 %)  trunk off the rig's line: worst "
+            f"{trunks.max():5.1f} %  (median {np.median(trunks):4.1f}; {int(np.sum(trunks <= 6))}/{len(scores)} "
+            f"within 6 %)")
 
 
 def confidence_against_error(maxes: np.ndarray, confidence: np.ndarray) -> str:
