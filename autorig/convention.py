@@ -79,6 +79,10 @@ def joint_frames(joints: np.ndarray, template, depth: np.ndarray) -> tuple[np.nd
             c = -c
         axes[j] = np.stack([a, b, c])
         scales[j] = (length, thickness[j], thickness[j])
+    # A limb and its mirror image share one size: a shield against one hand thickens the distance field
+    # there, and should not move that wrist by more than its twin.
+    for i, k in template.symmetry:
+        scales[i] = scales[k] = (scales[i] + scales[k]) / 2
     return axes, scales
 
 
@@ -136,6 +140,9 @@ def in_convention(joints: np.ndarray, template, name: str | None, field) -> np.n
     solid = np.array([not template.is_tip(j) for j in range(len(template.names))])
     after = field.depth(placed)
     outside = solid & (after < 0) & (after < depth)
+    # Mirror images stay or move together: one wrist left where it was and its twin moved would make a
+    # symmetric body's rig lopsided.
+    outside = outside | outside[template.mirror_of()]
     placed[outside] = joints[outside]
     return placed
 

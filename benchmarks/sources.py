@@ -9,11 +9,12 @@ learner's (``autorig.learn.conventions.source_of``) and so is its convention (th
 ``learned_from`` record says which sources share one, as the glTF samples and MakeHuman's Mixamo rig share the
 engines').
 
-- Every source but the largest is held out whole: a template is learned from all the others the built-in
+- Every source but 0 A.D. is held out whole (with the sources that share its bodies: ``makehuman`` and
+  ``makehuman-ue`` are the same bodies under two rigs): a template is learned from all the others the built-in
   biped learns from (its ``learned_from`` record's sources; a source it does not learn from is a test only), and
   each held-out character is rigged in the default convention (the engines') and, if another source follows
   its convention, in that one too.
-- The largest source (0 A.D.) is held out by group, as ``cross_validation.py`` does (characters sharing a body
+- 0 A.D. is held out by group, as ``cross_validation.py`` does (characters sharing a body
   mesh together, ``--folds`` folds), with every other source in each fold's training set, and rigged in its own
   convention and in the default.
 
@@ -45,8 +46,8 @@ def shipped_record(template: Path = ROOT / "templates" / "biped.json") -> dict:
 
 
 def examples(shared: Path, corpus: Path) -> list[tuple[Path, str, str]]:
-    """(folder, source, group) of every biped example: groups share a body mesh (0 A.D.'s first part file),
-    else each character is its own."""
+    """(folder, source, group) of every biped example: groups share a body mesh (0 A.D.'s first part file;
+    one MakeHuman body under both rigs), else each character is its own."""
     from autorig.learn.conventions import source_of
     from autorig.learn.examples import read_example
     from autorig.template import load_template
@@ -61,22 +62,31 @@ def examples(shared: Path, corpus: Path) -> list[tuple[Path, str, str]]:
                 continue
             example = read_example(folder, base)
             parts = meta.get("parts") or []
-            group = str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else folder.name
-            out.append((folder, source_of(example, folder), group))
+            source = source_of(example, folder)
+            body = folder.name[len(source) + 1:] if folder.name.startswith(source + "_") else folder.name
+            group = str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else body
+            out.append((folder, source, group))
     return out
 
 
-def plan(items, folds: int, learned: set[str] | None = None) -> list[tuple[str, list[Path], list[Path]]]:
-    """[(held-out source, training folders, test folders)]: the largest source by group folds, every other
-    source whole; only the ``learned`` sources (all for None) are ever trained on."""
+def family_of(source: str) -> str:
+    """The sources held out together: those that share bodies (``makehuman`` and ``makehuman-ue`` are the same
+    MakeHuman bodies under two rigs), named by the part before a hyphen."""
+    return source.split("-")[0]
+
+
+def plan(items, folds: int, learned: set[str] | None = None, by_group: str = "0ad"
+         ) -> list[tuple[str, list[Path], list[Path]]]:
+    """[(held-out family of sources, training folders, test folders)]: ``by_group`` (0 A.D.) by group folds,
+    as cross_validation.py holds it out, every other whole; only the ``learned`` sources (all for None) are
+    ever trained on."""
     by_source = defaultdict(list)
     for folder, source, group in items:
-        by_source[source].append((folder, group))
-    largest = max(by_source, key=lambda s: len(by_source[s]))
+        by_source[family_of(source)].append((folder, group))
     out = []
     for source, members in sorted(by_source.items()):
-        others = [f for f, s, _ in items if s != source and (learned is None or s in learned)]
-        if source != largest:
+        others = [f for f, s, _ in items if family_of(s) != source and (learned is None or s in learned)]
+        if source != by_group:
             out.append((source, others, [f for f, _ in members]))
             continue
         groups = sorted({g for _, g in members})
@@ -115,7 +125,8 @@ def evaluate(shared: Path, corpus: Path, folds: int, out_dir: Path, say, record:
             f"{time.perf_counter() - start:.0f} s; conventions {sorted(template.conventions or {})}")
         for folder in test:
             example = read_example(folder, base)
-            own = convention_for_source(template.conventions or {}, source_of(example, folder))
+            source = source_of(example, folder)
+            own = convention_for_source(template.conventions or {}, source)
             axes = {"up": example.up, "front": example.front}
             gt = score.load_gt(str(folder))
             asked = [template.default_convention]
