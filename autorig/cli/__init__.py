@@ -5,6 +5,7 @@
     autorig hero.obj --skeleton my_rig.glb  # weights only, for your own skeleton (.json, .glb/.gltf, .bvh)
     autorig rig hero.obj ...                # the same: ``rig`` is the default command
     autorig templates                       # list the built-in templates
+    autorig conventions                     # where each source of the biped's examples puts its joints
     autorig batch assets/ -o rigged/        # every mesh in a folder (autorig.batch)
     autorig hero.obj --preview              # also hero.rigged.png: front and side views (autorig.preview)
     autorig preview hero.rigged.glb         # the same picture of an existing rig
@@ -12,7 +13,7 @@
     autorig learn rigs/*.glb -o studio.json                 # a template learned from rigged characters
 
 One module per command, each a thin layer over the library: ``rig`` (the default command), ``batch``,
-``learn``, ``pose``, ``preview`` and ``templates``; what they share (the group that turns errors into exit codes,
+``learn``, ``pose``, ``preview`` and ``templates`` (with ``conventions``); what they share (the group that turns errors into exit codes,
 the common options and output checks) is in ``common``.
 
 Start-up must stay fast (``autorig --help`` well under 0.3 s): at module level import only click, the standard
@@ -45,6 +46,7 @@ def cli():
       autorig MESH [OPTIONS]    rig a mesh; short for 'autorig rig MESH [OPTIONS]'
                                 (see 'autorig rig --help' for the options)
       autorig templates         list the built-in templates
+      autorig conventions       list the biped's conventions (for --convention)
       autorig batch DIR -o OUT  rig every mesh in a folder (see 'autorig batch --help')
       autorig preview RIG       draw a rig file to a PNG
       autorig pose RIG -m BVH   move a rig file with a BVH motion
