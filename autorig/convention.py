@@ -121,10 +121,10 @@ def convention_shift(template, name: str | None) -> np.ndarray | None:
     """[J, 3] where the convention ``name``'s examples put the joints on average against the template's
     mean of all (template frame, one unit tall): what the learned placement pulls towards
     (``placement.learned_placement``); None for a template without conventions or a convention without it."""
-    _, offsets = convention_named(template, name)
+    name, offsets = convention_named(template, name)
     if offsets is None:
         return None
-    shift = template.conventions[name or template.default_convention].get("shift")
+    shift = template.conventions[name].get("shift")
     return None if shift is None else np.asarray(shift, float)
 
 

@@ -48,10 +48,9 @@ def shipped_record(template: Path = ROOT / "templates" / "biped.json") -> dict:
 def examples(shared: Path, corpus: Path) -> list[tuple[Path, str, str]]:
     """(folder, source, group) of every biped example: groups share a body mesh (0 A.D.'s first part file;
     one MakeHuman body under both rigs), else each character is its own."""
+    from types import SimpleNamespace
+
     from autorig.learn.conventions import source_of
-    from autorig.learn.examples import read_example
-    from autorig.template import load_template
-    base = load_template(HANDSET)
     out = []
     for root in (shared / "data" / "train", shared / "data" / "rigged", corpus):
         if not root.is_dir():
@@ -60,9 +59,9 @@ def examples(shared: Path, corpus: Path) -> list[tuple[Path, str, str]]:
             meta = json.loads((folder / "joints.json").read_text())
             if "biped_map" not in meta:
                 continue
-            example = read_example(folder, base)
             parts = meta.get("parts") or []
-            source = source_of(example, folder)
+            # The source needs only the folder's name and joints.json, not its mesh.
+            source = source_of(SimpleNamespace(name=folder.name, meta=meta), folder)
             body = folder.name[len(source) + 1:] if folder.name.startswith(source + "_") else folder.name
             group = str(parts[0].get("file")) if parts and isinstance(parts[0], dict) else body
             out.append((folder, source, group))
