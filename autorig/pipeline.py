@@ -68,6 +68,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .attach import bone_heat
     from .confidence import rig_confidence
     from .convention import convention_named, convention_shift, in_convention
+    from .landmarks import neck_fraction
     from .mesh import prepare
     from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
     from .placement import learned_placement
@@ -91,8 +92,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
     embedding, joints = embed_and_refine(field, graph, template, stage)
     with stage("placement"):
+        neck = neck_fraction(field) if (template.placement or {}).get("neck") is not None else None
         joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field,
-                                   shift=convention_shift(template, convention))
+                                   shift=convention_shift(template, convention), neck=neck)
     with stage("convention"):
         joints = in_convention(joints, template, convention, field)
     with stage("skin weights"):

@@ -11,6 +11,11 @@ to trust that over the refined position, joint by joint:
                scale about the origin stretches the template over the body (a long-bodied animal, a wide one)
     placed_j = refined_j + alpha_j * (stretch * template_j - refined_j) + box * offset_j
 
+With a learned ``neck`` (the mean neck height of the examples, as a fraction of their height: upright
+templates only), the stretch is not one scale in y but two: the template below its neck is scaled onto the
+body below the mesh's own neck (``landmarks.neck_fraction``), the template above it onto the head. A
+large-headed character's hips, chest and shoulders sit that much lower than a box stretch puts them.
+
 ``alpha`` [J] is fitted on rigs of the examples by least squares and clipped to [0, 1] (0: keep the refined
 joint; 1: take the template's); leaves keep alpha 0, so the ends the embedding found stay where they are.
 ``offset`` [J, 3] (optional) is what is still left between those rigs and their truths, on average, as a
@@ -27,6 +32,7 @@ from .template import Template
 
 
 MAX_STRETCH = 1.33
+MAX_NECK_SHIFT = 0.15    # fraction of the height: the furthest the mesh's neck may move the template's
 
 
 def leaves(template: Template) -> np.ndarray:
@@ -42,25 +48,45 @@ def body_box(extent, mean_extent) -> np.ndarray:
     return np.clip(np.asarray(extent, float), mean / MAX_STRETCH, mean * MAX_STRETCH)
 
 
-def stretched_template(extent: np.ndarray, template: Template, mean_extent, shift=None) -> np.ndarray:
+def stretched_template(extent: np.ndarray, template: Template, mean_extent, shift=None,
+                       neck: float | None = None) -> np.ndarray:
     """[J, 3] the template's joints, moved by a convention's ``shift`` [J, 3] (where its source's examples
     put them on average, against the template's mean of all; None: not moved), scaled per axis by the mesh's
-    box ``extent`` [3] (template frame) against the examples' ``mean_extent`` [3]."""
+    box ``extent`` [3] (template frame) against the examples' ``mean_extent`` [3]; in y, piecewise about the
+    neck where the template has learned one and the mesh's ``neck`` (fraction of its height) is known."""
+    mean_extent = np.asarray(mean_extent, float)
     positions = template.positions if shift is None else template.positions + np.asarray(shift, float)
-    return positions * (body_box(extent, mean_extent) / np.asarray(mean_extent, float))
+    stretched = positions * (body_box(extent, mean_extent) / mean_extent)
+    template_neck = (template.placement or {}).get("neck")
+    if template_neck is not None and neck is not None:
+        top = body_box(extent, mean_extent)[1]
+        stretched[:, 1] = top * neck_heights(stretched[:, 1] / top, template_neck, neck)
+    return stretched
+
+
+def neck_heights(height: np.ndarray, template_neck: float, neck: float) -> np.ndarray:
+    """[J] each height [J] (fractions of the body's height, feet 0, top 1) taken from a body whose neck is at
+    ``template_neck`` to one whose neck is at ``neck``, keeping the feet and the top: one scale below the
+    neck, another above it. The mesh's neck is held within ``MAX_NECK_SHIFT`` of the
+    template's, so a misread landmark cannot fold the trunk."""
+    neck = float(np.clip(neck, template_neck - MAX_NECK_SHIFT, template_neck + MAX_NECK_SHIFT))
+    return np.where(height <= template_neck, height * neck / template_neck,
+                    neck + (height - template_neck) * (1 - neck) / max(1 - template_neck, 1e-6))
 
 
 def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray, field=None,
-                      shift=None) -> np.ndarray:
+                      shift=None, neck: float | None = None) -> np.ndarray:
     """[J, 3] ``joints`` (canonical frame) pulled by the template's learned ``placement`` (unchanged without)
     towards the template moved by a convention's ``shift`` [J, 3] (``convention.convention_shift``);
-    ``extent`` [3] is the mesh's bounding box in the same frame. With the distance ``field``, a joint the pull
+    ``extent`` [3] is the mesh's bounding box in the same frame, ``neck`` its neck's height as a fraction of
+    its height (``landmarks.neck_fraction``; None: unknown). With the distance ``field``, a joint the pull
     would take out of the mesh stays where it was: the template's rest pose is not the character's (arms
     held out where the examples' hang), and a limb's joints belong inside the limb."""
     if not template.placement:
         return joints
     alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
-    placed = joints + alpha * (stretched_template(extent, template, template.placement["extent"], shift) - joints)
+    target = stretched_template(extent, template, template.placement["extent"], shift, neck)
+    placed = joints + alpha * (target - joints)
     if template.placement.get("offset") is not None:
         offset = np.asarray(template.placement["offset"], dtype=float)
         placed = placed + offset * body_box(extent, template.placement["extent"])
@@ -73,16 +99,18 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
 
 
 def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
-              mean_extent, weights: list[np.ndarray] | None = None, shifts: list | None = None) -> np.ndarray:
+              mean_extent, weights: list[np.ndarray] | None = None, shifts: list | None = None,
+              necks: list | None = None) -> np.ndarray:
     """[J] the alpha that brings the ``refined`` rigs [N][J, 3] nearest their ``truths`` [N][J, 3] (least
     squares per joint over the examples, with per-example joint ``weights`` [N][J] (0 where unknown));
     ``extents`` [N][3] are the meshes' boxes; ``shifts`` [N][J, 3] each example's convention's shift (or
-    None)."""
+    None); ``necks`` [N] each mesh's neck height fraction (or None)."""
     J = len(template.names)
     num, den = np.zeros(J), np.zeros(J)
     for n, (R, T) in enumerate(zip(refined, truths)):
         w = np.ones(J) if weights is None else weights[n]
-        pull = stretched_template(extents[n], template, mean_extent, None if shifts is None else shifts[n]) - R
+        pull = stretched_template(extents[n], template, mean_extent, None if shifts is None else shifts[n],
+                                  None if necks is None else necks[n]) - R
         num += w * np.einsum("ij,ij->i", pull, T - R)
         den += w * np.einsum("ij,ij->i", pull, pull)
     alpha = np.where(den > 1e-12, num / np.maximum(den, 1e-12), 0.0)

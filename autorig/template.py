@@ -90,8 +90,9 @@ class Template:
     helpers    weightless joints riding at fixed offsets from template joints (``Helper``)
     confidence a calibrated confidence model (``autorig.confidence.ConfidenceModel.to_dict``), or None
     learned_from  what ``autorig learn`` made the template from (kept for the record), or None
-    placement  {"alpha": [J], "extent": [3], "offset": [J, 3] (optional)}: how far each joint is pulled
-               towards the stretched template, and moved by the learned offset (``autorig.placement``), or None
+    placement  {"alpha": [J], "extent": [3], "offset": [J, 3] (optional), "neck": fraction (optional)}: how
+               far each joint is pulled towards the stretched template, and moved by the learned offset; the
+               examples' mean neck height for the stretch about the neck (``autorig.placement``), or None
     head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.orient``), in
                penalty units; 0 leaves front and back to the embedding alone
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
@@ -160,6 +161,8 @@ class Template:
         if self.placement is not None:
             data["placement"] = {"alpha": [round(float(a), 4) for a in self.placement["alpha"]],
                                  "extent": [round(float(e), 4) for e in self.placement["extent"]]}
+            if self.placement.get("neck") is not None:
+                data["placement"]["neck"] = round(float(self.placement["neck"]), 4)
             if self.placement.get("offset") is not None:
                 data["placement"]["offset"] = [[round(float(v), 4) for v in row]
                                                for row in self.placement["offset"]]
@@ -367,10 +370,16 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
                 isinstance(row, list) and len(row) == 3 and all(isinstance(v, (int, float)) and not isinstance(
                     v, bool) and abs(v) < 10 for v in row) for row in offset)):
             raise bad(f'"placement" "offset" must be {len(names)} rows of three numbers, one per joint')
+        neck = placement.get("neck")
+        if neck is not None and not (isinstance(neck, (int, float)) and not isinstance(neck, bool)
+                                     and 0.3 < neck < 1):
+            raise bad('"placement" "neck" must be a number between 0.3 and 1 (a fraction of the height)')
         # alpha and offset are listed in the file's joint order; the template's is parents-first.
         placement = {"alpha": [float(alpha[old[n]]) for n in order], "extent": [float(e) for e in extent]}
         if offset is not None:
             placement["offset"] = [[float(v) for v in offset[old[n]]] for n in order]
+        if neck is not None:
+            placement["neck"] = float(neck)
     from .convention import parse_conventions
     conventions, default_convention = parse_conventions(data.get("conventions"), names, order,
                                                         data.get("default_convention"), bad)

@@ -295,13 +295,17 @@ def _placed(template, samples, mean_extent: np.ndarray, sources: list[str] | Non
     truths, boxes = [s.truth for s in own], [s.extent for s in own]
     own_sources = [source for s, source in zip(samples, sources) if s.own_frame] if sources is not None else None
     own_shifts = [shifts[source] for source in own_sources] if shifts and own_sources else None
-    alpha = fit_alpha([s.refined for s in own], truths, boxes, template, mean_extent, known, own_shifts)
-    template = replace(template, placement={"alpha": alpha.tolist(), "extent": mean_extent.tolist()})
-    placed = [learned_placement(s.refined, template, s.extent, shift=None if own_shifts is None else own_shifts[n])
-              for n, s in enumerate(own)]
+    neck = mean_neck(own, mean_extent)
+    template = replace(template, placement={"extent": mean_extent.tolist(), **({"neck": neck} if neck else {})})
+    necks = [s.neck for s in own]
+    alpha = fit_alpha([s.refined for s in own], truths, boxes, template, mean_extent, known, own_shifts, necks)
+    template = replace(template, placement={**template.placement, "alpha": alpha.tolist()})
+    placed = [learned_placement(s.refined, template, s.extent, shift=None if own_shifts is None else own_shifts[n],
+                                neck=s.neck) for n, s in enumerate(own)]
     if sources is not None:
         from .conventions import default_convention, fit_conventions
-        plain = [learned_placement(s.refined, template, s.extent) for s in own] if own_shifts else placed
+        plain = ([learned_placement(s.refined, template, s.extent, neck=s.neck) for s in own] if own_shifts
+                 else placed)
         conventions = fit_conventions(placed, plain, truths, [k > 0 for k in known],
                                       [s.field.depth(p) for s, p in zip(own, placed)], own_sources, template,
                                       names, shifts)
@@ -310,6 +314,16 @@ def _placed(template, samples, mean_extent: np.ndarray, sources: list[str] | Non
                                                              else None))
     offset = fit_offset(placed, truths, boxes, template, mean_extent, known)
     return replace(template, placement={**template.placement, "offset": offset.tolist()})
+
+
+def mean_neck(samples, mean_extent: np.ndarray) -> float | None:
+    """The examples' mean neck height (fraction of their height) for the placement's stretch about the neck,
+    or None: for templates that stand upright (taller than long: a quadruped's neck is not a height) and
+    where at least half of the ``samples`` show a neck."""
+    necks = [s.neck for s in samples if s.neck is not None]
+    if mean_extent[1] <= mean_extent[2] or 2 * len(necks) < len(samples):
+        return None
+    return float(np.mean(necks))
 
 
 def _log_lengths(per_example: np.ndarray, parents: np.ndarray) -> np.ndarray:

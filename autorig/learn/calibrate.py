@@ -31,7 +31,8 @@ SIGNS = {"cost_per_bone": -1, "proportions": -1, "limbs": 1, "extra": 1, "inside
 @dataclass
 class Sample:
     """A calibration rig: the embedding, its refined joints [J, 3] (before the learned placement), the
-    confidence parts, and the truth [J, 3] with the joints that count (``scored`` [J] bool)."""
+    confidence parts, and the truth [J, 3] with the joints that count (``scored`` [J] bool); the mesh's box
+    ``extent`` [3] and its neck's height fraction (``landmarks.neck_fraction``), for the placement."""
     field: object
     graph: object
     embedding: object
@@ -40,6 +41,7 @@ class Sample:
     scored: np.ndarray
     own_frame: bool
     extent: np.ndarray
+    neck: float | None = None
 
 
 def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, own_frame: bool,
@@ -47,13 +49,14 @@ def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, ow
     """``template`` embedded and refined on (field, graph) by ``autorig.rig``'s own stages
     (``pipeline.embed_and_refine``), with the learner's search budget; None if it does not fit."""
     from ..errors import RigFailedError
+    from ..landmarks import neck_fraction
     from ..pipeline import embed_and_refine
     from .gamma import SEARCH_BUDGET
     try:
         embedding, joints = embed_and_refine(field, graph, template, max_expansions=SEARCH_BUDGET)
     except RigFailedError:
         return None
-    return Sample(field, graph, embedding, joints, truth, scored, own_frame, extent)
+    return Sample(field, graph, embedding, joints, truth, scored, own_frame, extent, neck_fraction(field))
 
 
 def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray, convention: str | None = None
@@ -65,7 +68,7 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray, convention:
     from ..placement import learned_placement
     known = convention if convention in (template.conventions or {}) else None
     joints = learned_placement(sample.refined, template, sample.extent, sample.field,
-                               shift=convention_shift(template, known))
+                               shift=convention_shift(template, known), neck=sample.neck)
     joints = in_convention(joints, template, known, sample.field)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
     row = features(parts, posture_free_cost_per_bone(sample.embedding, sample.graph, template), joints, template,
