@@ -17,7 +17,11 @@ joint, the share whose predicted top-1 joint is on the same finger (and, stricte
 digit and joint, the fraction of least mean error over all hands read with GT wrists; it prints them with the
 error they give, and the leave-one-body-out error (each body scored with fractions fitted on the other 23).
 
-    PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e]
+``--speed MESH`` rigs MESH (e.g. a 30k-face character with fingers: ``tests/hand_samples.py`` makes one) five
+times with and five without ``fingers=True`` and prints the medians of the hands stage, the skin weights and
+the whole rig.
+
+    PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e] [--speed MESH]
 """
 from __future__ import annotations
 
@@ -195,12 +199,34 @@ def fit(bodies):
     print(f"with the shipped FRACTIONS: {100 * np.take_along_axis(err, now[None, :, :, None], axis=3).mean():.1f} %")
 
 
+def speed(mesh, runs=5):
+    """Print the medians of the hands stage, the skin weights and the whole rig of ``mesh``, with and without
+    fingers, over ``runs`` alternating runs."""
+    import autorig
+    times = {False: [], True: []}
+    for _ in range(runs):
+        for fingers in (False, True):
+            start = time.perf_counter()
+            rig = autorig.rig(mesh, "biped", autorig.RigOptions(fingers=fingers))
+            times[fingers].append((rig.timings.get("hands", 0.0), rig.timings["skin weights"],
+                                   time.perf_counter() - start))
+    print(f"{mesh}: {len(rig.faces)} faces, hands {rig.info.get('hands')}")
+    for fingers, rows in times.items():
+        hands, heat, total = np.median(np.array(rows), axis=0)
+        print(f"  fingers={fingers!s:5s}: hands stage {1000 * hands:.0f} ms, skin weights {1000 * heat:.0f} ms, "
+              f"whole rig {total:.2f} s (median of {runs})")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--corpus", default=os.path.join(os.path.dirname(__file__), "..", "..", "corpus"))
     parser.add_argument("--fit", action="store_true", help="measure the joint fractions on the corpus")
     parser.add_argument("--no-e2e", action="store_true", help="only with the GT wrists and elbows")
+    parser.add_argument("--speed", metavar="MESH", help="time the hands stage on MESH instead")
     args = parser.parse_args()
+    if args.speed:
+        speed(args.speed)
+        return
     folders = sorted(glob.glob(os.path.join(args.corpus, "makehuman_*")))
     if not folders:
         raise SystemExit(f"no makehuman_* folders under {args.corpus}")

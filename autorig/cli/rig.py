@@ -72,6 +72,9 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     from ..template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
+        if fingers:
+            raise click.UsageError("--fingers adds finger joints to a template's rig; --skeleton keeps your own "
+                                   "joints (give it finger joints instead)")
         return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, names, verbose, quiet,
                              start, {"max_faces": max_faces, "allow_outside_paths": allow_outside_paths})
     mesh_path = check_mesh_path(mesh)

@@ -9,7 +9,7 @@ import numpy as np
 from .digits import read_hand
 from .joints import digit_joints
 from .names import FINGERS, SIDES
-from .region import hand_surface
+from .region import CUT_BEFORE_WRIST, hand_piece, hand_surface
 
 
 
@@ -82,21 +82,45 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
 
 def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers) -> np.ndarray:
     """Bone-heat weights [V, J + K] of the rig's J joints (joints [J, 3], parents [J], names [J]) and the K
-    finger joints. Each finger's bones heat its own skin; the palm follows the wrist.
+    finger joints (``read_fingers``); rows >= 0 summing to 1, every vertex weighted.
 
-    The wrist's bone to ``hand_end`` would run down the middle finger and warm it for the wrist; with fingers
-    it is heated from the middle finger's knuckle instead (the bone wrist -> middle1, which the wrist owns
-    anyway), while ``hand_end`` itself stays where the body's rig put it."""
+    The body is heated as without fingers. Each hand with fingers is then heated again on its own, at the
+    full resolution of its piece of surface (``region.hand_piece``), with the forearm, the palm's bones (the
+    wrist to each digit's first joint, the wrist's) and the finger bones: each finger's skin follows that
+    finger. The hand's weights replace the body's from the wrist on, blended smoothly over the forearm
+    between the cut and the wrist, where both solutions agree on the forearm. The body's solve keeps its
+    size (a 30k-face character: one solve of 23 bones, not of 63), and the fingers get the hand's
+    triangles rather than the body's simplified copy."""
     from ..attach import bone_heat
 
-    heat_joints = np.array(joints, dtype=np.float64)
-    index = {n: i for i, n in enumerate(list(names) + fingers.names)}
-    all_joints = np.vstack([heat_joints, fingers.positions])
+    names = list(names)
+    weights = np.hstack([bone_heat(vertices, faces, joints, parents), np.zeros((len(vertices), len(fingers.names)))])
+    column = {n: i for i, n in enumerate(names + fingers.names)}
     for side, status in fingers.status.items():
-        if status == "fingers":
-            all_joints[index[f"{side}_hand_end"]] = all_joints[index[f"{side}_middle1"]]
-    _, all_parents, _, _ = fingers.appended(names, parents, all_joints, None)
-    return bone_heat(vertices, faces, all_joints, all_parents)
+        if status != "fingers":
+            continue
+        wrist, elbow = joints[column[f"{side}_wrist"]], joints[column[f"{side}_elbow"]]
+        piece = hand_piece(vertices, faces, wrist, elbow)
+        if piece is None:       # not for the mesh the fingers were read off: keep the body's weights
+            continue
+        own = [k for k, n in enumerate(fingers.names) if n.startswith(f"{side}_")]
+        local_names = [f"{side}_elbow", f"{side}_wrist"] + [fingers.names[k] for k in own]
+        local_index = {n: i for i, n in enumerate(local_names)}
+        local_parents = [-1, 0] + [local_index[fingers.parents[k]] for k in own]
+        local_joints = np.vstack([elbow, wrist, fingers.positions[own]])
+        hand = bone_heat(piece.vertices, piece.faces, local_joints, local_parents)      # [N, 2 + 20]
+        # Input vertices of the piece (their welded copy is in it), and how far past the cut each lies.
+        slot = np.full(int(piece.weld.max()) + 1, -1)
+        slot[piece.ids] = np.arange(len(piece.ids))
+        rows = np.flatnonzero(slot[piece.weld] >= 0)
+        at = slot[piece.weld[rows]]
+        cut = -CUT_BEFORE_WRIST * float(np.linalg.norm(wrist - elbow))
+        s = np.clip((piece.along[at] - cut) / -cut, 0.0, 1.0)
+        s = (s * s * (3 - 2 * s))[:, None]
+        local = np.zeros((len(rows), weights.shape[1]))
+        local[:, [column[n] for n in local_names]] = hand[at]
+        weights[rows] = (1 - s) * weights[rows] + s * local
+    return weights
 
 
 __all__ = ["FINGERS", "Fingers", "SIDES", "has_hands", "read_fingers", "skin_with_fingers"]
