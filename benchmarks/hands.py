@@ -17,11 +17,13 @@ joint, the share whose predicted top-1 joint is on the same finger (and, stricte
 digit and joint, the fraction of least mean error over all hands read with GT wrists; it prints them with the
 error they give, and the leave-one-body-out error (each body scored with fractions fitted on the other 23).
 
+``--shared`` rigs the shared biped-like meshes (no finger ground truth: it prints what each hand was read as).
+
 ``--speed MESH`` rigs MESH (e.g. a 30k-face character with fingers: ``tests/hand_samples.py`` makes one) five
 times with and five without ``fingers=True`` and prints the medians of the hands stage, the skin weights and
 the whole rig.
 
-    PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e] [--speed MESH]
+    PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e] [--shared] [--speed MESH]
 """
 from __future__ import annotations
 
@@ -217,13 +219,34 @@ def speed(mesh, runs=5):
               f"whole rig {total:.2f} s (median of {runs})")
 
 
+SHARED_BIPEDS = ("meshes/armadillo.obj", "meshes/beast.obj", "meshes/cheburashka.obj", "meshes/homer.obj",
+                 "meshes/ogre.obj", "meshes/sydney.obj", "rigged/CesiumMan/mesh.obj", "rigged/RiggedFigure/mesh.obj")
+
+
+def shared(data):
+    """Print how each hand of the shared biped-like meshes was read (biped + fingers), and the stage's time."""
+    import autorig
+    for rel in SHARED_BIPEDS:
+        path = os.path.join(data, rel)
+        if not os.path.exists(path):
+            continue
+        rig = autorig.rig(path, "biped", autorig.RigOptions(fingers=True))
+        print(f"{rel:32s} {len(rig.faces):7d} faces  hands {rig.info['hands']}  "
+              f"stage {1000 * rig.timings['hands']:.0f} ms")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--corpus", default=os.path.join(os.path.dirname(__file__), "..", "..", "corpus"))
     parser.add_argument("--fit", action="store_true", help="measure the joint fractions on the corpus")
     parser.add_argument("--no-e2e", action="store_true", help="only with the GT wrists and elbows")
     parser.add_argument("--speed", metavar="MESH", help="time the hands stage on MESH instead")
+    parser.add_argument("--shared", action="store_true", help="what the shared meshes' hands are read as")
+    parser.add_argument("--data", default=os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data"))
     args = parser.parse_args()
+    if args.shared:
+        shared(args.data)
+        return
     if args.speed:
         speed(args.speed)
         return

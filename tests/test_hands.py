@@ -160,7 +160,7 @@ def test_mixamo_names_every_finger_once(fingered_rig):
     assert FINGER_NAMES["unreal"]["left_index1"] == "index_01_l"
     assert FINGER_NAMES["unreal"]["right_thumb3"] == "thumb_03_r"
     assert FINGER_NAMES["unity"]["left_thumb1"] == "LeftThumbProximal"
-    assert FINGER_NAMES["unity"]["right_pinky2"] == "RightLittleIntermediate".replace("Little", "Pinky")
+    assert FINGER_NAMES["unity"]["right_pinky2"] == "RightLittleIntermediate"     # HumanBodyBones' name
     assert all(len(set(table.values())) == 40 for table in FINGER_NAMES.values())
 
 
@@ -256,3 +256,16 @@ def test_batch_rigs_again_when_fingers_are_asked_for(tmp_path):
             for f in (False, True, True)]
     assert keys[0].key != keys[1].key == keys[2].key
     assert keys[1].options.fingers
+
+
+def test_the_batch_report_says_which_hands_got_fingers(tmp_path):
+    sample = mannequin()
+    (tmp_path / "in").mkdir()
+    write_obj(sample.vertices, sample.faces, tmp_path / "in" / "hero.obj")
+    for run in (1, 2):     # the second run keeps the rig, and still says so
+        done = _cli("batch", tmp_path / "in", "-o", tmp_path / "out", "--fingers", "-j", "1",
+                    "--report", tmp_path / f"report{run}.json")
+        assert done.returncode == 0, done.stderr
+        (asset,) = json.loads((tmp_path / f"report{run}.json").read_text())["assets"]
+        assert asset["status"] == ("ok" if run == 1 else "skipped")
+        assert set(asset["hands"]) == {"left", "right"} and set(asset["hands"].values()) <= {"mitten", "fist"}

@@ -4,7 +4,8 @@
     mixamo   mixamorig:LeftHandIndex1, 2, 3, 4          (4: Mixamo's own tip joints)
     unreal   index_01_l, index_02_l, index_03_l, index_03_end_l
     unity    LeftIndexProximal, LeftIndexIntermediate, LeftIndexDistal, LeftIndexDistal_End
-             (Unity's HumanBodyBones, written as the body's joints are: LeftUpperArm, LeftHand)
+             (Unity's HumanBodyBones, written as the body's joints are: LeftUpperArm, LeftHand; Unity calls
+             the pinky the little finger: LeftLittleProximal)
 
 The tips of the Unreal and Unity schemes, which have no tip bones of their own, are named after their bone
 with ``_end``/``_End``. A rig with fingers ends its fingers at Mixamo's ``LeftHandMiddle4``, the name the
@@ -35,7 +36,8 @@ def _scheme(scheme: str) -> dict[str, str]:
                 elif scheme == "unreal":
                     out[joint] = f"{finger}_0{min(k, 2) + 1}_{'end_' if k == 3 else ''}{s}"
                 else:
-                    out[joint] = f"{S}{F}{_UNITY_PHALANX[min(k, 2)]}" + ("_End" if k == 3 else "")
+                    digit = "Little" if finger == "pinky" else F
+                    out[joint] = f"{S}{digit}{_UNITY_PHALANX[min(k, 2)]}" + ("_End" if k == 3 else "")
     return out
 
 
