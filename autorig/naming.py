@@ -33,6 +33,20 @@ def _mixamo() -> dict[str, str]:
 MIXAMO: dict[str, str] = _mixamo()
 _FROM_MIXAMO = {name: joint for joint, name in MIXAMO.items()}
 
+# ---------------------------------------------------------------- fingers (autorig.hands), a block of its own
+# A rig with fingers (``autorig.hands``) names them too: mixamorig:LeftHandIndex1..4. Its fingertip
+# LeftHandMiddle4 is then the middle finger's tip, and hand_end takes LeftHand_End instead.
+from .hands.names import FINGER_NAMES, HAND_END_BESIDE_FINGERS  # noqa: E402
+
+_FINGERED_MIXAMO = {**MIXAMO, **HAND_END_BESIDE_FINGERS["mixamo"], **FINGER_NAMES["mixamo"]}
+_FROM_FINGERED_MIXAMO = {name: joint for joint, name in _FINGERED_MIXAMO.items()}
+
+
+def _has_fingers(names) -> bool:
+    """Whether joint names (the template's or Mixamo's) include finger joints."""
+    return any(n in FINGER_NAMES["mixamo"] or n in _FROM_FINGERED_MIXAMO and n not in _FROM_MIXAMO for n in names)
+# ---------------------------------------------------------------- end of the fingers' block
+
 
 def rename_joints(rig: Rig, scheme: str) -> Rig:
     """``rig`` with its joints named by ``scheme`` (one of ``NAME_SCHEMES``; "template" leaves it as it is).
@@ -43,7 +57,8 @@ def rename_joints(rig: Rig, scheme: str) -> Rig:
     check_names(rig.names, scheme)
     if scheme == "template":
         return rig
-    return replace(rig, names=[MIXAMO.get(name, name) for name in rig.names])
+    table = _FINGERED_MIXAMO if _has_fingers(rig.names) else MIXAMO
+    return replace(rig, names=[table.get(name, name) for name in rig.names])
 
 
 def check_names(joint_names: list[str], scheme: str) -> None:
@@ -58,4 +73,5 @@ def check_names(joint_names: list[str], scheme: str) -> None:
 
 def template_names(names: list[str]) -> list[str]:
     """The template's names for joint names that may be Mixamo's (others are returned as they are)."""
-    return [_FROM_MIXAMO.get(name, name) for name in names]
+    table = _FROM_FINGERED_MIXAMO if _has_fingers(names) else _FROM_MIXAMO
+    return [table.get(name, name) for name in names]

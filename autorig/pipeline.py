@@ -14,6 +14,8 @@
                -> placement       a learned template's joints pulled towards it (``autorig.placement``)
                -> convention      the joints moved to where the chosen convention's artists put them
                                   (``autorig.convention``)
+               -> hands           fingers read off the full-resolution hands: three joints and a tip per
+                                  digit (``autorig.hands``), for templates with fingers or ``fingers=True``
                -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
                -> confidence      how much to trust the result
 
@@ -47,7 +49,9 @@ class RigOptions:
     None for the template's default.
     max_faces: a mesh of more triangles is refused (``InputError``) before it is read (None: no limit).
     allow_outside_paths: let a mesh file name textures, MTL files and buffers outside its own folder
-    (``autorig.confine``)."""
+    (``autorig.confine``).
+    fingers: read fingers off the hands (``autorig.hands``) whatever the template says; a template with
+    ``"fingers": true`` always gets them."""
     up: str = "auto"
     front: str = "auto"
     voxels: int = 96
@@ -55,6 +59,7 @@ class RigOptions:
     convention: str | None = None
     max_faces: int | None = MAX_FACES
     allow_outside_paths: bool = False
+    fingers: bool = False
 
 
 def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
@@ -97,13 +102,25 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
                                    shift=convention_shift(template, convention), neck=neck)
     with stage("convention"):
         joints = in_convention(joints, template, convention, field)
+    fingers = None
+    if template.fingers or options.fingers:
+        from .hands.stage import read_fingers, skin_with_fingers
+        with stage("hands"):
+            fingers = read_fingers(prepared.vertices, prepared.faces, template.names, joints)
     with stage("skin weights"):
-        weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
+        weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents) if fingers is None else
+                   skin_with_fingers(prepared.vertices, prepared.faces, joints, template.parents, template.names,
+                                     fingers))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
-    # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight.
-    names, parents, joints = template.with_helpers(joints)
-    weights = np.hstack([weights, np.zeros((len(weights), len(template.helpers)))])
+    # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.
+    J = len(template.names)
+    names, parents, body = template.with_helpers(joints)
+    weights = np.hstack([weights[:, :J], np.zeros((len(weights), len(template.helpers))), weights[:, J:]])
+    if fingers is not None:
+        names, parents, joints, weights = fingers.appended(names, parents, body, weights)
+    else:
+        joints = body
 
     return Rig(
         names=names, parents=parents, joints=prepared.from_canonical(joints),
@@ -113,6 +130,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **dropped_info(look),
+              **(fingers.info() if fingers is not None else {}),
               **({"convention": convention} if convention else {})})
 
 

@@ -29,6 +29,7 @@ import numpy as np
 from .errors import InputError
 from .exchange.bvh import Motion
 from .mesh import frame_rotation
+from .hands.names import motion_names as finger_motion_names
 from .naming import template_names
 from .result import Rig
 
@@ -64,6 +65,7 @@ def _biped_map() -> dict[str, tuple[str, ...]]:
             f"{side}_toe": (f"{S}ToeBase", f"{S}Toes", f"{S}Toe"),
             f"{side}_toe_end": (f"{S}Toe_End",),
         })
+    table.update(finger_motion_names())   # a rig with fingers (autorig.hands): Mixamo's and Unreal's finger bones
     return table
 
 

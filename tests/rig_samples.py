@@ -52,9 +52,17 @@ def mannequin_bvh(poses: list[dict[str, tuple[float, float, float]]], root_moves
     """
     from autorig.template import load_template
 
-    joints = mannequin_sample().joints
     template = load_template("biped")
-    names, parents = list(template.names), template.parents
+    return skeleton_bvh(list(template.names), CMU_NAMES, template.parents, mannequin_sample().joints, poses,
+                        root_moves, frame_time, units)
+
+
+def skeleton_bvh(names: list[str], bvh_names: dict[str, str], parents, joints: dict[str, np.ndarray],
+                 poses: list[dict[str, tuple[float, float, float]]], root_moves: list[tuple[float, float, float]],
+                 frame_time: float = 1 / 24, units: float = 100.0) -> str:
+    """BVH text for a skeleton: ``names`` [J] with ``parents`` [J] (parents first) at ``joints`` {name: [3]}
+    (metres), each written as ``bvh_names[name]``; joints ending in ``_end`` are their parent's End Site.
+    poses and root_moves as in ``mannequin_bvh``, keyed by ``names``."""
     lines = ["HIERARCHY"]
     order: list[int] = []
 
@@ -62,7 +70,7 @@ def mannequin_bvh(poses: list[dict[str, tuple[float, float, float]]], root_moves
         pad = "  " * depth
         offset = (joints[names[j]] - (joints[names[parents[j]]] if parents[j] >= 0 else 0)) * units
         children = [c for c in range(len(names)) if parents[c] == j]
-        lines.append(f"{pad}{'ROOT' if parents[j] < 0 else 'JOINT'} {CMU_NAMES[names[j]]}")
+        lines.append(f"{pad}{'ROOT' if parents[j] < 0 else 'JOINT'} {bvh_names[names[j]]}")
         lines.append(pad + "{")
         lines.append(f"{pad}  OFFSET {offset[0]:.6f} {offset[1]:.6f} {offset[2]:.6f}")
         lines.append(pad + "  CHANNELS " + ("6 Xposition Yposition Zposition " if parents[j] < 0 else "3 ")
@@ -77,7 +85,7 @@ def mannequin_bvh(poses: list[dict[str, tuple[float, float, float]]], root_moves
                 write(c, depth + 1)
         lines.append(pad + "}")
 
-    write(int(np.flatnonzero(parents < 0)[0]), 0)
+    write(int(np.flatnonzero(np.asarray(parents) < 0)[0]), 0)
     lines += ["MOTION", f"Frames: {len(poses)}", f"Frame Time: {frame_time:.8f}"]
     for pose, move in zip(poses, root_moves):
         values = []

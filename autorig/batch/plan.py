@@ -129,7 +129,9 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
             content = (_digest({"name": AUTO, "voxels": how.voxels, "max_segments": how.max_segments})
                        if loaded == AUTO else templates.digest(loaded))
             settings = {"template": content, "up": up, "front": front,
-                        **({"convention": convention} if convention is not None else {})}
+                        **({"convention": convention} if convention is not None else {}),
+                        # --fingers only when asked (autorig.hands), so that earlier rigs still count as done
+                        **({"fingers": True} if how.fingers and loaded != AUTO else {})}
         try:
             files = input_files(input_dir / rel, input_dir, allow_outside)
         except InputError:

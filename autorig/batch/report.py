@@ -30,6 +30,8 @@ def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
 
 def _json_asset(asset: AssetResult) -> dict:
     document = asdict(asset)
+    if not document["hands"]:       # only rigs that were asked for fingers (autorig.hands) say which hands have them
+        del document["hands"]
     document["seconds"] = round(asset.seconds, 3)
     document["timings"] = {stage: round(s, 4) for stage, s in asset.timings.items()}
     return document

@@ -28,6 +28,8 @@ class AssetResult:
     previous_timings  for ``skipped``: the ``timings`` of the run that rigged it, else {}
     dropped     [{"what", "path", "reason"}] the parts of its look left out (``rig.info["dropped"]``: a texture
                 outside its folder, missing, not an image; see ``autorig.confine``), also for skipped assets
+    hands       ``rig.info["hands"]``: which hands got fingers ({"left": "fingers", "right": "mitten"}) when
+                fingers were asked for (``autorig.hands``), also for skipped assets; else {}
     thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
                 flat shape) relative to the output folder, when
                 a run with ``html`` drew them (kept for skipped assets), else {}
@@ -48,6 +50,7 @@ class AssetResult:
     previous_timings: dict[str, float] = field(default_factory=dict)
     thumbnails: dict[str, str] = field(default_factory=dict)
     dropped: list[dict] = field(default_factory=list)
+    hands: dict[str, str] = field(default_factory=dict)
 
     @property
     def failed(self) -> bool:

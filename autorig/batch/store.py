@@ -53,7 +53,7 @@ def kept_result(plan: Plan, entry: dict | None, output_dir: Path) -> AssetResult
                        error_type=entry.get("error_type"), confidence=entry.get("confidence"),
                        confidence_parts=entry.get("confidence_parts") or {},
                        previous_timings=entry.get("timings") or {}, thumbnails=thumbnails,
-                       dropped=entry.get("dropped") or [])
+                       dropped=entry.get("dropped") or [], hands=entry.get("hands") or {})
 
 
 def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict,
@@ -65,7 +65,7 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                          error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
                          confidence_parts=outcome.get("confidence_parts", {}),
                          seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}),
-                         dropped=outcome.get("dropped", []))
+                         dropped=outcome.get("dropped", []), hands=outcome.get("hands", {}))
     out = output_dir / plan.output
     _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
@@ -86,7 +86,8 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                               "confidence_parts": result.confidence_parts,
                               "timings": {stage: round(s, 4) for stage, s in result.timings.items()},
                               "thumbnails": result.thumbnails,
-                              **({"dropped": result.dropped} if result.dropped else {})}
+                              **({"dropped": result.dropped} if result.dropped else {}),
+                              **({"hands": result.hands} if result.hands else {})}
     else:
         manifest.pop(plan.rel, None)
     return result

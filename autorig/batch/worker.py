@@ -78,6 +78,7 @@ def rig_one(job: Job) -> dict:
                     "confidence": None if confidence is None else float(confidence),
                     "confidence_parts": dict(result.info.get("confidence_parts") or {}),
                     "dropped": list(result.info.get("dropped", [])),
+                    "hands": dict(result.info.get("hands") or {}),
                     "seconds": time.perf_counter() - start}
         except AutorigError as e:
             error, error_type, remember = str(e), type(e).__name__, True

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (AXES, EXIT_CODES, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP, VOXELS_HELP,
-                     common_options, input_options, parse_skeleton_scale)
+from .common import (AXES, EXIT_CODES, FINGERS_HELP, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP,
+                     VOXELS_HELP, common_options, input_options, parse_skeleton_scale)
 
 # Must match autorig.batch.DEFAULT_EXTENSIONS (a test checks); repeated here so --help imports nothing.
 BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
@@ -52,6 +52,7 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
                    "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
+@click.option("--fingers", is_flag=True, help=FINGERS_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Print only failed assets (and warnings).")
 @input_options
 @common_options
@@ -59,7 +60,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                   skeleton_scale: str | None, convention: str | None, up: str, front: str, voxels: int,
                   max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, html: str | None, names: str, quiet: bool, max_faces: int,
+                  junit: str | None, html: str | None, names: str, fingers: bool, quiet: bool, max_faces: int,
                   allow_outside_paths: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
@@ -102,7 +103,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
     try:
         result = rig_folder(input_dir, output_dir, template,
                             RigOptions(up=up.lower(), front=front.lower(), voxels=voxels, max_segments=max_segments,
-                                       convention=convention, **limits),
+                                       convention=convention, fingers=fingers, **limits),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale, **limits), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
                             junit=junit, html=html, names=names, on_start=progress.on_start,

@@ -61,6 +61,10 @@ NAMES_HELP = ("Joint names in the output: the template's, or mixamo (mixamorig:H
               "biped only) for animation libraries and Unity's Humanoid auto-mapping.")
 
 
+FINGERS_HELP = ("Also read five fingers of three joints off each hand (autorig.hands), whatever the template; a hand "
+                "that shows no fingers (a mitten, a fist) gets none, and the summary says so.")
+
+
 VOXELS_HELP = "--template auto: voxels along the mesh's longest side (finer finds thinner limbs)."
 
 

@@ -10,8 +10,8 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES,
-                     NAMES_HELP, VOXELS_HELP, check_output, common_options, input_options, parse_skeleton_scale,
+from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP,
+                     NAME_SCHEMES, NAMES_HELP, VOXELS_HELP, check_output, common_options, input_options, parse_skeleton_scale,
                      preview_title, refuse_input, require_matplotlib, warn_dropped)
 
 
@@ -50,6 +50,7 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS,
                    "[default: auto for .bvh, else 1 (positions in the mesh's units)]")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
+@click.option("--fingers", is_flag=True, help=FINGERS_HELP)
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success (warnings still).")
 @input_options
@@ -57,7 +58,7 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FORMAT_OF_SUFFIX, FORMATS,
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, convention: str | None, up: str,
                 front: str,
                 strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
-                skeleton_scale: str | None, names: str, verbose: bool, quiet: bool, max_faces: int,
+                skeleton_scale: str | None, names: str, fingers: bool, verbose: bool, quiet: bool, max_faces: int,
                 allow_outside_paths: bool):
     """Rig MESH (OBJ, PLY, STL, OFF, glTF/GLB) with a template skeleton and write the result; or, with
     --skeleton, compute skin weights for your own skeleton.
@@ -71,6 +72,9 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     from ..template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
+        if fingers:
+            raise click.UsageError("--fingers adds finger joints to a template's rig; --skeleton keeps your own "
+                                   "joints (give it finger joints instead)")
         return _skin_command(mesh, skeleton_file, skeleton_scale, output, fmt, preview, names, verbose, quiet,
                              start, {"max_faces": max_faces, "allow_outside_paths": allow_outside_paths})
     mesh_path = check_mesh_path(mesh)
@@ -80,6 +84,8 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         convention_named(skeleton, convention)   # an unknown convention fails here, before any slow work
     elif convention is not None:
         raise click.UsageError("--convention needs a learned template: --template auto has no conventions")
+    if fingers and skeleton == AUTO_TEMPLATE:
+        raise click.UsageError("--fingers needs a template with hands: --template auto finds no wrists")
     if names != "template":
         from ..naming import check_names
         # A template without Mixamo names fails here, before any slow work.
@@ -95,7 +101,8 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         _import_paused(RIG_MODULES, fmt)
         result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels, max_segments=max_segments,
                                                           convention=convention, max_faces=max_faces,
-                                                          allow_outside_paths=allow_outside_paths))
+                                                          allow_outside_paths=allow_outside_paths,
+                                                          fingers=fingers))
         warn_dropped(mesh, result.info)
         confidence = result.info["confidence"]
         if strict and confidence < STRICT_THRESHOLD:
@@ -110,8 +117,15 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
             axes += " (detected)"
         template_name = result.template + (f" ({result.info['convention']})" if "convention" in result.info else "")
         click.echo(f"{mesh}: {template_name}, {len(result.names)} joints, {len(result.vertices)} vertices, "
-                   f"{axes}, confidence {result.info['confidence']:.2f}, {end - start:.2f} s -> {out_path}"
+                   f"{axes}, confidence {result.info['confidence']:.2f}{_hands(result.info)}, {end - start:.2f} s "
+                   f"-> {out_path}"
                    + (f" (preview {preview_path})" if preview else ""))
+
+
+def _hands(info: dict) -> str:
+    """", hands: left fingers, right mitten" for a rig whose hands were read (``autorig.hands``), else ""."""
+    hands = info.get("hands")
+    return ", hands: " + ", ".join(f"{side} {status}" for side, status in hands.items()) if hands else ""
 
 
 # What each command's pipeline imports (see _import_paused); a module missing here only costs some speed.

@@ -219,6 +219,9 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
     if rig.info.get("dropped"):
         # What of the input's look could not come along (autorig.confine), for whoever opens the file.
         scene_extras["autorig_dropped"] = rig.info["dropped"]
+    if rig.info.get("hands"):
+        # Which hands got fingers (autorig.hands): {"left": "fingers", "right": "mitten"}.
+        scene_extras["autorig_hands"] = rig.info["hands"]
     doc.scenes[0].nodes = roots + mesh_nodes
     doc.scenes[0].extras = scene_extras or None
     doc.buffers[0].byteLength = len(blob)
