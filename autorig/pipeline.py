@@ -14,6 +14,7 @@
                -> placement       a learned template's joints pulled towards it (``autorig.placement``)
                -> convention      the joints moved to where the chosen convention's artists put them
                                   (``autorig.convention``)
+               -> legs            a four-legged template's leg joints read off the mesh's legs (``autorig.legs``)
                -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
                -> confidence      how much to trust the result
 
@@ -95,6 +96,10 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
                                    shift=convention_shift(template, convention))
     with stage("convention"):
         joints = in_convention(joints, template, convention, field)
+    if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
+        from .legs import read_legs, surface_of
+        with stage("legs"):
+            joints = read_legs(joints, template, *surface_of(field))
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):

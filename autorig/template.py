@@ -97,6 +97,8 @@ class Template:
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
                to the shared anatomy (``autorig.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
+    legs       {joint name: {"height": [2], "offset": [2]}}: where a four-legged animal's leg joints sit on its
+               legs as the mesh shows them (``autorig.legs``), or None
     """
     name: str
     names: tuple[str, ...]
@@ -113,6 +115,7 @@ class Template:
     head_tail: float = field(default=0.0, compare=False, hash=False)
     conventions: dict | None = field(default=None, compare=False, hash=False)
     default_convention: str | None = field(default=None, compare=False, hash=False)
+    legs: dict | None = field(default=None, compare=False, hash=False)
 
     @property
     def children(self) -> list[list[int]]:
@@ -169,6 +172,8 @@ class Template:
             from .convention import conventions_dict
             data["default_convention"] = self.default_convention
             data["conventions"] = conventions_dict(self)
+        if self.legs:
+            data["legs"] = self.legs
         if self.confidence is not None:
             data["confidence"] = self.confidence
         if self.learned_from is not None:
@@ -374,6 +379,8 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
     from .convention import parse_conventions
     conventions, default_convention = parse_conventions(data.get("conventions"), names, order,
                                                         data.get("default_convention"), bad)
+    from .legs import parse_legs
+    legs = parse_legs(data.get("legs"), names, bad)
     return Template(
         name=str(data.get("name", default_name)),
         names=tuple(order),
@@ -390,6 +397,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         head_tail=float(head_tail),
         conventions=conventions,
         default_convention=default_convention,
+        legs=legs,
     )
 
 
