@@ -33,6 +33,10 @@ LEVELS = np.linspace(0.005, 0.995, 100)
 # leg has no ring at that level.
 NEAR = 0.08
 BEND_FROM = 0.15
+# The joints whose place along the body is each species' artists' habit rather than anatomy (issue 26's
+# convention-free score: ``benchmarks/quadruped_score.py``): a rig is not wrong for putting them elsewhere on
+# the body's line, so the confidence of a template with legs is calibrated on the other joints.
+CONVENTION_JOINTS = ("hips", "spine", "chest", "neck")
 FEATURES = 3
 
 
@@ -232,6 +236,11 @@ def read_legs(joints: np.ndarray, template, vertices: np.ndarray, faces: np.ndar
     return out
 
 
+def limb_joints(template) -> np.ndarray:
+    """[J] bool: the joints a four-legged rig is judged right or wrong by (all but ``CONVENTION_JOINTS``)."""
+    return np.array([n not in CONVENTION_JOINTS for n in template.names])
+
+
 def surface_of(field) -> tuple[np.ndarray, np.ndarray]:
     """(vertices [W, 3], faces [G, 3]) of the surface a distance field was built on (the working mesh, at
     most ``mesh.COARSE_FACES`` triangles), in the field's frame: what the rig's legs are cut from, so that a
@@ -253,3 +262,4 @@ def parse_legs(value, names, bad) -> dict | None:
         raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "offset": [x, z]}}')
     return {k: {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
                 "offset": [float(x) for x in r["offset"]]} for k, r in value.items()} or None
+

@@ -89,3 +89,18 @@ def test_the_stage_runs_for_four_legged_templates_only():
         assert np.linalg.norm(rig.joint(name) - dog.joints[name]) / height < 0.1, name
     person = mannequin()
     assert "legs" not in autorig.rig((person.vertices, person.faces), "biped").timings
+
+
+@pytest.mark.parametrize("build", ["dog", "long", "tall"])
+def test_confidence_tells_a_right_animal_from_a_backwards_one(build):
+    """The quadruped's confidence is calibrated on rigs judged by their limbs, not by where each species'
+    artists put the trunk joints: a rig the right way round trusts itself, one made facing backwards (left and
+    right, head and tail swapped: its limbs more than 20 % off) does not. Before, every quadruped scored 0.01."""
+    sample = quadruped(build)
+    height = float(np.ptp(sample.vertices[:, 1]))
+    for front, right in (("z", True), ("-z", False)):
+        rig = autorig.rig((sample.vertices, sample.faces), "quadruped", autorig.RigOptions(up="y", front=front))
+        worst = max(np.linalg.norm(rig.joint(n) - sample.joints[n]) / height for n in rig.names
+                    if n in sample.joints and not n.endswith("_end") and n not in ("hips", "spine", "chest", "neck"))
+        assert (worst < 0.25) if right else (worst > 0.2), (front, worst)
+        assert (rig.info["confidence"] >= 0.5) == right, (front, rig.info["confidence"])
