@@ -15,10 +15,12 @@ report; joints fewer than ``MIN_EXAMPLES`` examples have, and the paws, are left
 Which joints take what was chosen by cross-validation over the corpus's species groups (16 animals, 4 folds as
 ``benchmarks/cross_validation.py`` deals them, each fold's shipped-recipe template with legs learned from the
 other folds, axes given; mean error of each joint, % of the height: placement alone -> moved across onto the
-leg -> height from the leg too, measured with a bend that took the larger of fore and aft): knees 11.6 ->
-9.7 -> 6.1 and hocks 7.2 -> 6.9 -> 5.9 take both; shoulders 12.4 -> 9.6 (10.2), hips 13.9 -> 12.2 (12.0), elbows 6.7 -> 6.3 (6.8) and wrists 8.5 -> 8.0
-(9.8) only the move across, their heights being more the artists' habit than the leg's shape; the paws, which
-the embedding finds at the leg's end, neither (4.0 -> 4.7).
+leg -> height from the leg too): knees 11.6 -> 9.7 -> 6.1 take both, and so do hocks (7.2 -> 6.9 -> 7.2: the
+0 A.D. hocks are as well placed by the template's proportions, within 0.3, but a long-legged animal's are not,
+and the sample dog's bend is found at its hock; a bend that took the larger of fore and aft gave 5.9 here and
+found the dog's knee instead); shoulders 12.4 -> 9.6 (10.2), hips 13.9 -> 12.2 (12.0), elbows 6.7 -> 6.3 (6.8)
+and wrists 8.5 -> 8.0 (9.8) only the move across, their heights being more the artists' habit than the leg's
+shape; the paws, which the embedding finds at the leg's end, neither (4.0 -> 4.7).
 """
 from __future__ import annotations
 
