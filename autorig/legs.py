@@ -65,14 +65,16 @@ class Leg:
 
 def legs_of(template) -> list[list[int]]:
     """Each leg's chain of joint indices [root, ..., foot tip], from the template's feet (``feet``) up to
-    the last joint before the trunk (the first whose parent branches)."""
+    the last joint before the trunk (the first whose parent branches); a foot with fewer than two joints above
+    it before the trunk has no leg to read."""
     children = template.children
     out = []
     for foot in template.feet:
         chain = [int(foot)]
         while template.parents[chain[-1]] >= 0 and len(children[template.parents[chain[-1]]]) == 1:
             chain.append(int(template.parents[chain[-1]]))
-        out.append(chain[::-1])
+        if len(chain) >= 3:
+            out.append(chain[::-1])
     return out
 
 

@@ -104,3 +104,14 @@ def test_confidence_tells_a_right_animal_from_a_backwards_one(build):
                     if n in sample.joints and not n.endswith("_end") and n not in ("hips", "spine", "chest", "neck"))
         assert (worst < 0.25) if right else (worst > 0.2), (front, worst)
         assert (rig.info["confidence"] >= 0.5) == right, (front, rig.info["confidence"])
+
+
+def test_a_foot_on_the_trunk_is_no_leg(template):
+    """A custom template whose foot hangs straight from a branching joint has no leg chain to read."""
+    data = template.to_dict()
+    for joint in data["joints"]:
+        if joint["name"] == "back_left_paw_end":
+            joint["parent"] = "hips"
+    odd = template_from_dict(data)
+    chains = [[odd.names[j] for j in chain] for chain in legs_of(odd)]
+    assert len(chains) == 3 and all(chain[-1] != "back_left_paw_end" for chain in chains)
