@@ -14,6 +14,7 @@
                -> placement       a learned template's joints pulled towards it (``autorig.placement``)
                -> convention      the joints moved to where the chosen convention's artists put them
                                   (``autorig.convention``)
+               -> legs            a four-legged template's leg joints read off the mesh's legs (``autorig.legs``)
                -> hands           fingers read off the full-resolution hands: three joints and a tip per
                                   digit (``autorig.hands``), for templates with fingers or ``fingers=True``
                -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
@@ -102,6 +103,10 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
                                    shift=convention_shift(template, convention), neck=neck)
     with stage("convention"):
         joints = in_convention(joints, template, convention, field)
+    if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
+        from .legs import read_legs, surface_of
+        with stage("legs"):
+            joints = read_legs(joints, template, *surface_of(field))
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers

@@ -100,6 +100,8 @@ class Template:
                to the shared anatomy (``autorig.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
     fingers    whether rigs of it get fingers read off their hands (``autorig.hands``); default False
+    legs       {joint name: {"height": [2], "offset": [2]}}: where a four-legged animal's leg joints sit on its
+               legs as the mesh shows them (``autorig.legs``), or None
     """
     name: str
     names: tuple[str, ...]
@@ -117,6 +119,7 @@ class Template:
     conventions: dict | None = field(default=None, compare=False, hash=False)
     default_convention: str | None = field(default=None, compare=False, hash=False)
     fingers: bool = field(default=False, compare=False, hash=False)
+    legs: dict | None = field(default=None, compare=False, hash=False)
 
     @property
     def children(self) -> list[list[int]]:
@@ -177,6 +180,8 @@ class Template:
             data["conventions"] = conventions_dict(self)
         if self.fingers:
             data["fingers"] = True
+        if self.legs:
+            data["legs"] = self.legs
         if self.confidence is not None:
             data["confidence"] = self.confidence
         if self.learned_from is not None:
@@ -391,6 +396,8 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
     from .convention import parse_conventions
     conventions, default_convention = parse_conventions(data.get("conventions"), names, order,
                                                         data.get("default_convention"), bad)
+    from .legs import parse_legs
+    legs = parse_legs(data.get("legs"), names, bad)
     return Template(
         name=str(data.get("name", default_name)),
         names=tuple(order),
@@ -408,6 +415,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         conventions=conventions,
         default_convention=default_convention,
         fingers=fingers,
+        legs=legs,
     )
 
 

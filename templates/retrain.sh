@@ -25,7 +25,8 @@ CORPUS="${2:-../corpus}"
 # femoral heads: the glTF samples in shared/data/rigged and MakeHuman's Mixamo rig) is the default, and each
 # source's own ships under its name. The four-legged templates keep their hand-set proportions and penalty
 # weights (the learned ones rigged worse: mean joint error 14.5 % against 11.8 %) and learn the head/tail cue's
-# weight, the placement (10.3 %) and their confidence; their corpus is one source.
+# weight, the placement (10.3 %), their legs (read off the mesh: autorig/learn/legs.py) and their confidence;
+# their corpus is one source.
 learn() {
     autorig learn "$SHARED/data/train" "$SHARED/data/rigged" --template "templates/handset/$1.json" \
         --name "$1" -o "templates/$1.json" --learn "$2" "${@:3}"
@@ -33,5 +34,5 @@ learn() {
 learn biped proportions,penalties,placement,conventions,confidence "$CORPUS"/makehuman_* "$CORPUS"/makehuman-ue_* \
     --convention engine=rigged,makehuman,makehuman-ue --convention gltf=rigged --convention mixamo=makehuman \
     --convention unreal=makehuman-ue --default-convention engine
-learn quadruped orientation,placement,confidence
-learn horse orientation,placement,confidence
+learn quadruped orientation,placement,legs,confidence
+learn horse orientation,placement,legs,confidence

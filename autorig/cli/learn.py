@@ -19,8 +19,9 @@ from .common import EXIT_CODES, common_options
 @click.option("--name", metavar="NAME", help="The learned template's name. [default: the base's, or the file's stem]")
 @click.option("--learn", "parts", default="proportions,penalties,placement,confidence", show_default=True,
               metavar="PARTS", help="What to learn (comma-separated, of proportions, penalties, orientation, "
-                                    "placement, conventions, confidence); with --template the rest is the base's. "
-                                    "orientation: how much detection weighs the head/tail cue (four-legged "
+                                    "placement, conventions, legs, confidence); with --template the rest is the "
+                                    "base's. orientation: how much detection weighs the head/tail cue (four-legged "
+                                    "templates); legs: where leg joints sit on the legs the mesh shows (four-legged "
                                     "templates); conventions: where each source's artists put the joints, "
                                     "apart from the shared anatomy (needs placement).")
 @click.option("--convention", "conventions", multiple=True, metavar="NAME=SOURCE[,SOURCE...]",

@@ -7,6 +7,7 @@
               -> discretize  each example's sphere graph, in its own frame and facing the wrong ways
               -> Γ           max-margin penalty weights (``gamma``)
               -> head/tail   how much orientation detection weighs the outline's head/tail cue (``head_tail``)
+              -> legs        where leg joints sit on the legs the mesh shows (``legs``, four-legged templates)
               -> confidence  a calibrated model, on rigs of held-out folds, of the examples as they are and
                              re-proportioned (``calibrate``, ``augment``)
 
@@ -26,7 +27,7 @@ from .proportions import (example_positions, fat_joints, feet, fill_from_others,
 FOLDS = 3   # calibration folds (whole groups of examples held out together)
 # What a template can learn. "conventions" splits the placement's offset by the examples' sources
 # (``autorig.convention``): it needs "placement", the shared anatomy the conventions are offsets from.
-PARTS = ("proportions", "penalties", "orientation", "placement", "conventions", "confidence")
+PARTS = ("proportions", "penalties", "orientation", "placement", "conventions", "legs", "confidence")
 
 
 @dataclass
@@ -92,6 +93,12 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
         template = replace(template, head_tail=weight)
         say(f"head/tail cue weight {weight:.2f}: examples whose own frame does not win clearly "
             f"{head_tail.get('unclear_without')} without it, {head_tail.get('unclear_with')} with it")
+    legs = {}
+    if "legs" in parts:
+        from .legs import learn_legs
+        rules, legs = learn_legs(examples, per_example, template)
+        template = replace(template, legs=rules or None)
+        say(f"legs: {legs['legs_measured']} of {legs['legs_total']} measured, rules for {len(rules)} joints")
     confidence = {}
     if "placement" in parts or "confidence" in parts:
         template, confidence = _calibrated(template, skeleton, examples, per_example, extents, settings, say,
@@ -103,7 +110,7 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
               **({"conventions": {n: c["sources"] for n, c in template.conventions.items()},
                   "default_convention": template.default_convention} if template.conventions else {}),
               "learned": [p for p in PARTS if p in parts],
-              "penalty_rounds": gamma_rounds, "head_tail": head_tail,
+              "penalty_rounds": gamma_rounds, "head_tail": head_tail, **({"legs": legs} if legs else {}),
               "mean_spread": round(float(np.mean(spread)), 4), "confidence": confidence}
     template = replace(template, learned_from=record)
     return Learned(template, [e.name for e in examples], spread, gamma_rounds, confidence)

@@ -63,17 +63,23 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray, convention:
                ) -> tuple[dict, float]:
     """(feature row, worst joint error) of a calibration rig after ``template``'s learned placement (the
     pipeline's placement stage), in the ``convention`` of the example's artist (the template's default if it
-    does not know that one)."""
+    does not know that one), and with its legs read off the mesh when the template has learned legs (then the
+    worst error leaves out the trunk joints whose place is a convention, ``legs.CONVENTION_JOINTS``)."""
     from ..convention import convention_shift, in_convention
     from ..placement import learned_placement
     known = convention if convention in (template.conventions or {}) else None
     joints = learned_placement(sample.refined, template, sample.extent, sample.field,
                                shift=convention_shift(template, known), neck=sample.neck)
     joints = in_convention(joints, template, known, sample.field)
+    scored = sample.scored
+    if template.legs:    # as the pipeline's legs stage places them, judged apart from the trunk's convention
+        from ..legs import limb_joints, read_legs, surface_of
+        joints = read_legs(joints, template, *surface_of(sample.field))
+        scored = scored & limb_joints(template)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
     row = features(parts, posture_free_cost_per_bone(sample.embedding, sample.graph, template), joints, template,
                    bone_log_sigma, sample.field.surface_vertices)
-    worst = float(np.max(np.linalg.norm(joints[sample.scored] - sample.truth[sample.scored], axis=1)))
+    worst = float(np.max(np.linalg.norm(joints[scored] - sample.truth[scored], axis=1)))
     return row, worst
 
 
