@@ -147,9 +147,11 @@ def head_tail_cue(vertices: np.ndarray) -> float:
 
 
 def working_axes(up: str, front: str) -> tuple[str, str]:
-    """The frame to discretize in: the user's, when both axes are given; else the input's own axes (y, z),
-    so that the discretization's axes are the input's and detection can mirror across them."""
-    return (up, front) if "auto" not in (up, front) else ("y", "z")
+    """The frame to discretize in: always the input's own axes (y, z), so that detection can mirror across
+    them, and so that axes given by the user give the rig that detecting the same axes gives (the
+    discretization is then the same one, carried into the frame by ``reorient``); ``up`` and ``front`` are
+    taken for the callers' sake and do not change it."""
+    return ("y", "z")
 
 
 def candidate_frames(up: str, front: str, left_axis: int) -> list[tuple[str, str]]:

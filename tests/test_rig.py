@@ -93,7 +93,10 @@ def test_output_in_input_coordinates():
     V = np.c_[sample.vertices[:, 0], -sample.vertices[:, 2], sample.vertices[:, 1]] * 100.0
     lying = autorig.rig((V, sample.faces), "biped", autorig.RigOptions(up="z", front="-y"))
     back = np.c_[lying.joints[:, 0], lying.joints[:, 2], -lying.joints[:, 1]] / 100.0
-    np.testing.assert_allclose(back, upright.joints, atol=1e-3 * 1.7)
+    # The field is sampled in the file's own axes (so that given axes rig as detected ones do: test_orient),
+    # so the rig is close to the upright one, not bit-identical.
+    apart = np.linalg.norm(back - upright.joints, axis=1) / np.ptp(sample.vertices[:, 1])
+    assert apart.mean() < 0.005 and apart.max() < 0.02
     np.testing.assert_array_equal(lying.vertices, V)
 
 
