@@ -11,6 +11,7 @@ A template is a JSON file (see ``templates/biped.json``)::
      "helpers": [{"name": "ik_knee_L", "parent": "hips", "offset": [0.1, 0.3, 0.6]}],  # optional
      "confidence": {...},                            # optional: a calibrated model (autorig.confidence)
      "head_tail": 1.2,                               # optional: weight of the head/tail cue (autorig.orient)
+     "fingers": true,                                # optional: rigs get finger joints read off the mesh
      "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
 
 Positions are in the canonical frame used throughout autorig: +y up, +z the direction the character faces,
@@ -97,6 +98,8 @@ class Template:
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
                to the shared anatomy (``autorig.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
+    fingers    whether rigs of this template get finger joints read off the mesh (the humanoid's hands); the
+               embedding never places fingers, so the flag changes no joint of the template itself
     """
     name: str
     names: tuple[str, ...]
@@ -113,6 +116,7 @@ class Template:
     head_tail: float = field(default=0.0, compare=False, hash=False)
     conventions: dict | None = field(default=None, compare=False, hash=False)
     default_convention: str | None = field(default=None, compare=False, hash=False)
+    fingers: bool = field(default=False, compare=False, hash=False)
 
     @property
     def children(self) -> list[list[int]]:
@@ -165,6 +169,8 @@ class Template:
                                                for row in self.placement["offset"]]
         if self.head_tail:
             data["head_tail"] = round(float(self.head_tail), 4)
+        if self.fingers:
+            data["fingers"] = True
         if self.conventions:
             from .convention import conventions_dict
             data["default_convention"] = self.default_convention
@@ -349,6 +355,9 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
     head_tail = data.get("head_tail", 0.0)
     if isinstance(head_tail, bool) or not isinstance(head_tail, (int, float)) or not 0 <= head_tail < float("inf"):
         raise bad('"head_tail" must be a number >= 0')
+    fingers = data.get("fingers", False)
+    if not isinstance(fingers, bool):
+        raise bad('"fingers" must be true or false')
     confidence = data.get("confidence")
     if confidence is not None and not isinstance(confidence, dict):
         raise bad('"confidence" must be an object')
@@ -390,6 +399,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         head_tail=float(head_tail),
         conventions=conventions,
         default_convention=default_convention,
+        fingers=fingers,
     )
 
 

@@ -1,6 +1,7 @@
 """Whole-process speed and memory of `autorig MESH`, as a user runs it, from 5k to 1M faces.
 
     python benchmarks/speed.py [--runs 5] [--sizes 5000,20000,60000,200000,1000000] [--shared ../shared]
+                               [--templates humanoid,...]
 
 Meshes: the project's mannequin (autorig.samples, A-pose) and, when ../shared/data is present, armadillo.obj
 and horse.obj, each brought to every size by loop subdivision then quadric decimation to the exact face
@@ -9,6 +10,8 @@ the default options (orientation detected), after one untimed warm-up run, timed
 Printed: the median wall time of the runs (fork to exit of the autorig process), the median of each stage's
 time (from -v), the peak RSS, and
 per stage the exponent b of time ~ faces^b fitted over the sizes. Also `autorig --help` / `--version`.
+``--templates`` also rigs the mannequin with each of those templates (rows ``mannequin-NAME``), e.g. the
+humanoid against the biped on the same meshes.
 """
 from __future__ import annotations
 
@@ -98,6 +101,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--sizes", default="5000,20000,60000,200000,1000000")
     parser.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
+    parser.add_argument("--templates", default="", help="also rig the mannequin with these templates")
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
 
@@ -110,6 +114,9 @@ def main(argv=None) -> int:
         folder = Path(tmp)
         rows = []
         meshes = build_meshes(folder, sizes, args.shared)
+        meshes += [(f"{name}-{template}", size, path, ["--template", template])
+                   for name, size, path, _ in list(meshes) if name == "mannequin"
+                   for template in filter(None, args.templates.split(","))]
         run([str(meshes[0][2]), "-o", str(folder / "out.glb")])    # warm-up: bytecode and file caches
         for name, size, path, flags in meshes:
             results = [run([str(path), "-o", str(folder / "out.glb"), "-v", *flags])
