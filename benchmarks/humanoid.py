@@ -35,7 +35,6 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 POSES = {"T": 0.0, "A": 40.0, "arms down": 70.0}
-EXPECTED = {"T": "T", "A": "A", "arms down": "arms down"}
 AXES = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1), "-z": (0, 0, -1),
         "x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
 EXTRA = ("spine1", "left_clavicle", "right_clavicle")
@@ -209,7 +208,7 @@ def summary(rows: list[dict]) -> str:
                 f"  {kind:8s} {pose:9s} {len(ok):3d} rigs: mean {np.mean([r['mean'] for r in ok]):4.2f}"
                 + (f" | body {np.mean(bodies):4.2f}" if bodies else "")
                 + f"  worst joint {max(r['max'] for r in ok):5.1f}  top-1 {np.mean([r['top1'] for r in ok]):5.1f}"
-                + f"  pose right {sum(r['found'] == EXPECTED[pose] for r in ok)}/{len(ok)}  failed "
+                + f"  pose right {sum(r['found'] == pose for r in ok)}/{len(ok)}  failed "
                 + f"{len(mine) - len(ok)}  | by source "
                 + ", ".join(f"{s} {np.mean(v):.2f}" for s, v in sorted(by_source.items()))
                 + ("  | " + ", ".join(f"{j} {v:.2f}" for j, v in extra.items()) if extra else ""))
