@@ -78,6 +78,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .mesh import prepare
     from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
     from .placement import learned_placement
+    from .rest_pose import rest_pose
     from .template import AUTO, Template, load_template
 
     options = options or RigOptions()
@@ -134,8 +135,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
               "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
-              "search_expansions": int(embedding.expanded), **dropped_info(look),
-              **(fingers.info() if fingers is not None else {}),
+              "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
+              **dropped_info(look), **(fingers.info() if fingers is not None else {}),
               **({"convention": convention} if convention else {})})
 
 

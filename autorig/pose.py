@@ -46,9 +46,12 @@ def _biped_map() -> dict[str, tuple[str, ...]]:
     """
     table = {
         "hips": ("Hips", "Hip", "pelvis", "Pelvis"),
-        "spine": ("Spine", "Ab", "LowerBack"),
+        "spine": ("Spine", "Ab", "LowerBack", "spine_01"),
         "chest": ("Spine2", "Spine1", "Chest", "Chest2"),
-        "neck": ("Neck", "Neck1"),
+        # the humanoid's three spine joints (templates/humanoid.json): Mixamo's, CMU's, Unity's, Unreal's
+        "spine1": ("Spine1", "Chest", "spine_02"),
+        "spine2": ("Spine2", "Chest2", "UpperChest", "spine_03"),
+        "neck": ("Neck", "Neck1", "neck_01"),
         "head": ("Head",),
         "head_end": ("HeadTop_End",),
     }
@@ -56,6 +59,10 @@ def _biped_map() -> dict[str, tuple[str, ...]]:
         S = side.capitalize()
         table.update({
             f"{side}_shoulder": (f"{S}Arm", f"{S}UpArm", f"{S}Shoulder"),
+            # the humanoid's collarbone, after the arm: a MotionBuilder-style file's LeftCollar (its LeftShoulder
+            # is the upper arm), else Mixamo's and CMU's LeftShoulder (``joint_map`` keeps it off a joint the arm
+            # took)
+            f"{side}_clavicle": (f"{S}Collar", f"clavicle_{s.lower()}", f"{S}Shoulder"),
             f"{side}_elbow": (f"{S}ForeArm", f"{S}Elbow", f"{S}LowArm"),
             f"{side}_wrist": (f"{S}Hand", f"{S}Wrist"),
             f"{side}_hand_end": (f"{S}HandMiddle1", f"{S}HandIndex1", f"{s}Fingers", f"{S}FingerBase"),
@@ -128,7 +135,7 @@ def joint_map(rig_names: list[str], motion_names: list[str], overrides: dict[str
     mapping = {}
     for joint, candidates in BIPED_MAP.items():
         found = next((by_bare[c] for c in candidates if c in by_bare), None)
-        if joint in rig_joint and found is not None:
+        if joint in rig_joint and found is not None and found not in mapping.values():
             mapping[rig_joint[joint]] = found
     for joint, target in (overrides or {}).items():
         if joint not in rig_names:

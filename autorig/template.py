@@ -174,6 +174,8 @@ class Template:
                                                for row in self.placement["offset"]]
         if self.head_tail:
             data["head_tail"] = round(float(self.head_tail), 4)
+        if self.fingers:
+            data["fingers"] = True
         if self.conventions:
             from .convention import conventions_dict
             data["default_convention"] = self.default_convention

@@ -1,6 +1,7 @@
 """Rig accuracy against ground truth: the shared real characters and the project's own mannequins.
 
     python benchmarks/accuracy.py [--shared ../shared] [--out DIR] [--cv [--folds 4] [--corpus ../corpus]]
+                                  [--humanoid]
 
 For each real character in ``shared/data/rigged`` that has a template map, the rig is made as a user makes it
 (``autorig MESH --template T [--front AXIS] -o OUT.glb``) and the .glb is scored by ``shared/tools/score.py``,
@@ -15,6 +16,9 @@ leave-one-source-out (``benchmarks/sources.py``: every source of its examples he
 rigged in the engines' convention and in its own), the quadruped on the training corpus
 (``benchmarks/cross_validation.py``: learned from the other folds of whole groups and tested on the held-out
 ones, before (hand-set) against after); the two kinds run side by side in two processes.
+
+With ``--humanoid``, also the humanoid template cross-validated by group on the corpus, in T-pose, A-pose and
+with the arms down (``benchmarks/humanoid.py``: the corpus characters re-posed through their artists' weights).
 
 Also checked per model: every non-tip joint inside the mesh (generalized winding number >= 0.5) and left
 and right not swapped (each left_ joint nearer the true left joint than the true right one).
@@ -133,6 +137,8 @@ def main(argv=None) -> int:
     parser.add_argument("--folds", type=int, default=4)
     parser.add_argument("--corpus", type=Path, default=ROOT.parent / "corpus",
                         help="with --cv: the corpora data/corpus/*.py build (default ../corpus)")
+    parser.add_argument("--humanoid", action="store_true",
+                        help="also the humanoid, cross-validated in three rest poses (benchmarks/humanoid.py)")
     args = parser.parse_args(argv)
     cv = _start_cross_validation(args.shared, args.folds, args.corpus) if args.cv else None
     with tempfile.TemporaryDirectory() as tmp:
@@ -153,6 +159,12 @@ def main(argv=None) -> int:
     if cv is not None:
         for future in cv:
             print(future.result())
+    if args.humanoid:
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+        import humanoid
+        with tempfile.TemporaryDirectory() as tmp:
+            print(humanoid.summary(humanoid.evaluate(args.shared, args.corpus, args.folds, Path(tmp),
+                                                     lambda _line: None)))
     return 0
 
 

@@ -1,6 +1,7 @@
 """Whole-process speed and memory of `autorig MESH`, as a user runs it, from 5k to 1M faces.
 
     python benchmarks/speed.py [--runs 5] [--sizes 5000,20000,60000,200000,1000000] [--shared ../shared]
+                               [--templates humanoid,...]
 
 Meshes: the project's mannequin (autorig.samples, A-pose) and, when ../shared/data is present, armadillo.obj
 and horse.obj, each brought to every size by loop subdivision then quadric decimation to the exact face
@@ -9,6 +10,8 @@ the default options (orientation detected), after one untimed warm-up run, timed
 Printed: the median wall time of the runs (fork to exit of the autorig process), the median of each stage's
 time (from -v), the peak RSS, and
 per stage the exponent b of time ~ faces^b fitted over the sizes. Also `autorig --help` / `--version`.
+``--templates`` also rigs the mannequin with each of those templates (rows ``mannequin-NAME``), e.g. the
+humanoid against the biped on the same meshes.
 """
 from __future__ import annotations
 
@@ -98,6 +101,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--sizes", default="5000,20000,60000,200000,1000000")
     parser.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
+    parser.add_argument("--templates", default="", help="also rig the mannequin with these templates")
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
 
@@ -110,10 +114,21 @@ def main(argv=None) -> int:
         folder = Path(tmp)
         rows = []
         meshes = build_meshes(folder, sizes, args.shared)
+        meshes += [(f"{name}-{template}", size, path, ["--template", template])
+                   for name, size, path, _ in list(meshes) if name == "mannequin"
+                   for template in filter(None, args.templates.split(","))]
         run([str(meshes[0][2]), "-o", str(folder / "out.glb")])    # warm-up: bytecode and file caches
-        for name, size, path, flags in meshes:
-            results = [run([str(path), "-o", str(folder / "out.glb"), "-v", *flags])
-                       for _ in range(args.runs if size < 1_000_000 else max(1, args.runs // 2))]
+        timed: dict[tuple[str, int], list] = {}
+        for path in dict.fromkeys(m[2] for m in meshes):
+            # The templates rigging one mesh take turns, run by run, so that the other load on the machine
+            # falls on each alike.
+            same = [m for m in meshes if m[2] == path]
+            for _ in range(args.runs if same[0][1] < 1_000_000 else max(1, args.runs // 2)):
+                for name, size, _, flags in same:
+                    timed.setdefault((name, size), []).append(run([str(path), "-o", str(folder / "out.glb"),
+                                                                   "-v", *flags]))
+        for name, size, _, _ in meshes:
+            results = timed[(name, size)]
             per_stage = {}
             for _, _, err in results:
                 for stage, seconds in stages(err).items():
@@ -127,6 +142,8 @@ def main(argv=None) -> int:
     for name, size, total, rss, per_stage in rows:
         print(f"{name:10s} {size:8d} {total:8.2f} {rss:8d}  " +
               " ".join(f"{per_stage.get(s, float('nan')):12.3f}" for s in stage_names))
+    if len(sizes) < 2:
+        return 0
     print("\ngrowth exponent b (time ~ faces^b), fitted per mesh over the sizes:")
     for name in dict.fromkeys(r[0] for r in rows):
         mine = [r for r in rows if r[0] == name]

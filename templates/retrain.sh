@@ -34,5 +34,10 @@ learn() {
 learn biped proportions,penalties,placement,conventions,confidence "$CORPUS"/makehuman_* "$CORPUS"/makehuman-ue_* \
     --convention engine=rigged,makehuman,makehuman-ue --convention gltf=rigged --convention mixamo=makehuman \
     --convention unreal=makehuman-ue --default-convention engine
+# The humanoid (the biped's body with three spine joints and clavicles, autorig.learn.humanoid_map reading them off
+# each rig's hierarchy) learns as the biped does, from the same examples and with the same conventions.
+learn humanoid proportions,penalties,placement,conventions,confidence "$CORPUS"/makehuman_* \
+    "$CORPUS"/makehuman-ue_* --convention engine=rigged,makehuman,makehuman-ue --convention gltf=rigged \
+    --convention mixamo=makehuman --convention unreal=makehuman-ue --default-convention engine
 learn quadruped orientation,placement,legs,confidence
 learn horse orientation,placement,legs,confidence

@@ -269,3 +269,24 @@ def test_the_batch_report_says_which_hands_got_fingers(tmp_path):
         (asset,) = json.loads((tmp_path / f"report{run}.json").read_text())["assets"]
         assert asset["status"] == ("ok" if run == 1 else "skipped")
         assert set(asset["hands"]) == {"left", "right"} and set(asset["hands"].values()) <= {"mitten", "fist"}
+
+
+def test_the_humanoid_with_fingers_loads_in_blender_with_all_of_mixamos_52_bones(hand_mesh, tmp_path):
+    from test_blender import BLENDER, render_report
+
+    if BLENDER is None:
+        pytest.skip("blender is not installed (apt-get install blender)")
+    from autorig.exchange import write_rig
+    from autorig.naming import HUMANOID_JOINTS, scheme_names
+
+    V, F, _ = hand_mesh
+    rig = autorig.rig((V, F), "humanoid")       # the humanoid reads fingers without being asked
+    assert rig.info["hands"] == {"left": "fingers", "right": "fingers"}
+    named = rename_joints(rig, "mixamo")
+    table = scheme_names("mixamo")
+    mixamo_52 = {table[n] for n in (*HUMANOID_JOINTS, *finger_joint_names()) if not n.endswith("_end")}
+    assert len(mixamo_52) == 52 and "mixamorig:LeftShoulder" in mixamo_52 and "mixamorig:Spine2" in mixamo_52
+    write_rig(named, tmp_path / "hero.fbx", "fbx")
+    report = render_report(tmp_path / "hero.fbx", tmp_path / "hero.png")
+    assert report["armatures"] == 1
+    assert mixamo_52 <= set(report["bones"])

@@ -167,8 +167,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     html               where to write the review page (``autorig.batch.review``), if anywhere; default the
                        ``html`` of ``input_dir``'s own config file. The workers then draw each rig's thumbnails
                        (needs Pillow), kept in ``output_dir/.autorig-thumbnails``
-    names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (mixamo: biped only;
-                       an asset with other joints fails)
+    names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (the engines' schemes:
+                       biped and humanoid only; an asset with other joints fails)
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 

@@ -54,11 +54,12 @@ _DEBUG = "autorig.debug"  # key in click's ctx.meta, which a group shares with i
 
 
 # Shared by 'autorig rig' and 'autorig batch'. NAME_SCHEMES must match autorig.naming.NAME_SCHEMES.
-NAME_SCHEMES = ["template", "mixamo"]
+NAME_SCHEMES = ["template", "mixamo", "unity", "unreal"]
 
 
-NAMES_HELP = ("Joint names in the output: the template's, or mixamo (mixamorig:Hips, mixamorig:LeftUpLeg, ...; "
-              "biped only) for animation libraries and Unity's Humanoid auto-mapping.")
+NAMES_HELP = ("Joint names in the output: the template's, mixamo (mixamorig:Hips, mixamorig:LeftUpLeg, ...) for "
+              "animation libraries, unity (Hips, LeftUpperArm, ...: a Humanoid avatar's bones) or unreal (pelvis, "
+              "spine_01, clavicle_l, upperarm_l, ...: the UE mannequin's); biped and humanoid only.")
 
 
 FINGERS_HELP = ("Also read five fingers of three joints off each hand (autorig.hands), whatever the template; a hand "

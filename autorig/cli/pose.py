@@ -22,7 +22,7 @@ from .common import EXIT_CODES, RIG_AXES, check_output, common_options, refuse_i
                    "blend skinning, which is what glTF viewers do.")
 @click.option("--map", "map_file", metavar="JSON",
               help="Joint map file {rig joint: motion joint, or null}, applied over the built-in table "
-                   "(CMU and mixamo names, for the biped template).")
+                   "(CMU and mixamo names, for the biped and humanoid templates).")
 @click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False), default="y", show_default=True,
               help="The rig's up axis.")
 @click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False), default="z", show_default=True,

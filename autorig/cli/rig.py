@@ -115,6 +115,8 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
             axes += " (detected)"
+        if "rest_pose" in result.info:    # autorig.rest_pose: the arms' pose the bind pose is in
+            axes += f", {result.info['rest_pose']} ({result.info['arm_angle']:.0f} deg)"
         template_name = result.template + (f" ({result.info['convention']})" if "convention" in result.info else "")
         click.echo(f"{mesh}: {template_name}, {len(result.names)} joints, {len(result.vertices)} vertices, "
                    f"{axes}, confidence {result.info['confidence']:.2f}{_hands(result.info)}, {end - start:.2f} s "

@@ -132,7 +132,7 @@ def _template(skeleton, per_example: np.ndarray, examples: list[Example], base: 
                     parents=skeleton.parents.copy(), positions=positions, symmetry=tuple(pairs),
                     feet=tuple(foot), fat=tuple(base.fat) if base is not None else (),
                     penalty_weights=dict(base.penalty_weights) if base is not None and base.penalty_weights
-                    else None, helpers=tuple(helpers))
+                    else None, helpers=tuple(helpers), fingers=base.fingers if base is not None else False)
 
 
 def _settings(examples, per_example, say):

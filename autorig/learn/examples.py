@@ -117,7 +117,9 @@ def _read_corpus(folder: Path, base: Template) -> Example | None:
         positions = np.array([j["position"] for j in joints], dtype=float)
     except (OSError, ValueError, KeyError, TypeError) as e:
         raise InputError(f"{folder}/joints.json: not a corpus joints file ({e})") from None
-    mapping = _best_map(meta, base, index)
+    from .humanoid_map import with_humanoid_map
+    # The humanoid's extra joints are read off the hierarchy of a rig that maps only the biped's.
+    mapping = _best_map(with_humanoid_map(meta, joints), base, index)
     if mapping is None:
         return None
     vertices, faces = load_mesh(folder / "mesh.obj")
