@@ -40,7 +40,7 @@ HEAT_MAX_VERTICES = 12_000  # denser surfaces are solved on a simplified copy (s
 _GENERIC_DIRECTION = np.array([0.5377, 0.8335, 0.1274]) / np.linalg.norm([0.5377, 0.8335, 0.1274])
 
 
-def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
+def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) -> np.ndarray:
     """Bone-heat skin weights of a mesh for a skeleton.
 
     vertices [V, 3] float: the mesh as given (may be multi-part, open, non-manifold, with duplicate vertices
@@ -50,6 +50,7 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
     parents  [J] int: parent joint of each joint, -1 for a root; parents come before their children.
     owners   [J] int, optional: for each non-root joint c, the weight column that receives the heat of the
         bone parent(c) -> c. Default ``parents``: a joint owns the bones that leave it, as in glTF skinning.
+    surface  optional: ``heat_surface(vertices, faces)``, made beforehand (``autorig.ahead``).
 
     Returns W [V, J] float64: W[i, j] is how much vertex i follows joint j's transform. Rows are >= 0 and sum
     to 1; joints that own no bone (tips) get zero columns. A skeleton without any bone (a single joint) gets
@@ -71,10 +72,10 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
         W[:, int(np.flatnonzero(parents < 0)[0])] = 1.0
         return W
 
-    weld, Vw, Fw = weld_surface(V, F)
+    weld, Vw, Fw, coarse = surface or heat_surface(V, F)
     heads, tails = P[parents[bone_child]], P[bone_child]
-    if len(Vw) > HEAT_MAX_VERTICES:
-        Wb = _weights_via_coarse_surface(Vw, Fw, heads, tails)
+    if coarse is not None:
+        Wb = _weights_via_coarse_surface(Vw, coarse, heads, tails)
     else:
         Wb = _bone_weights(Vw, Fw, heads, tails)                     # [U, B] on welded vertices
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
@@ -82,19 +83,37 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
     return (Wb @ to_joint)[weld]
 
 
-def _weights_via_coarse_surface(V, F, heads, tails):
-    """Bone weights [U, B] of a dense surface V [U, 3], F [G, 3], solved on a simplified copy of it.
+def heat_surface(V, F):
+    """The surface the heat is solved on, which depends on the mesh alone: (weld [V], Vw [U, 3], Fw [F', 3]) of
+    ``weld_surface``, and when Vw has more than HEAT_MAX_VERTICES vertices its simplified copy (vertices [U', 3],
+    faces [G', 3]) for ``_weights_via_coarse_surface``, else None.
 
     Heat equilibria are smooth, so a surface of HEAT_MAX_VERTICES vertices resolves them; past that the
-    factorisation and the visibility rays only cost time and memory (a 1M-face scan). Each dense vertex
-    takes the weights at its closest point on the simplified surface, interpolated across that triangle.
-    """
+    factorisation and the visibility rays only cost time and memory (a 1M-face scan)."""
+    weld, Vw, Fw = weld_surface(np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64))
+    if len(Vw) <= HEAT_MAX_VERTICES:
+        return weld, Vw, Fw, None
     import fast_simplification
+    coarse_V, coarse_F = fast_simplification.simplify(Vw, Fw.astype(np.int32), target_count=2 * HEAT_MAX_VERTICES)
+    return weld, Vw, Fw, (np.asarray(coarse_V, dtype=np.float64), np.asarray(coarse_F, dtype=np.int64))
+
+
+def start_heat_surface(prepared):
+    """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.mesh.PreparedMesh``), begun now on the
+    second core when it has a simplified copy to make (``autorig.ahead``); ``.result_if(vertices, faces)``
+    gives it to ``bone_heat``'s ``surface``."""
+    from .ahead import Ahead
+    return Ahead(heat_surface, (prepared.vertices, prepared.faces),
+                 wanted=len(prepared.work_vertices) > HEAT_MAX_VERTICES)
+
+
+def _weights_via_coarse_surface(V, coarse, heads, tails):
+    """Bone weights [U, B] of a dense surface's vertices V [U, 3], solved on its simplified copy ``coarse``
+    (vertices [U', 3], faces [G', 3]; see ``heat_surface``). Each dense vertex takes the weights at its closest
+    point on the simplified surface, interpolated across that triangle."""
     import igl
 
-    coarse_V, coarse_F = fast_simplification.simplify(V, F.astype(np.int32), target_count=2 * HEAT_MAX_VERTICES)
-    coarse_V = np.asarray(coarse_V, dtype=np.float64)
-    coarse_F = np.asarray(coarse_F, dtype=np.int64)
+    coarse_V, coarse_F = coarse
     W = _bone_weights(coarse_V, coarse_F, heads, tails)
     tree = igl.AABB()
     tree.init(coarse_V, coarse_F)
@@ -104,7 +123,11 @@ def _weights_via_coarse_surface(V, F, heads, tails):
                                        coarse_V[corners[:, 2]])
     bary = np.clip(np.nan_to_num(bary, nan=1.0 / 3.0), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
-    return _clean(np.einsum("nk,nkb->nb", bary, W[corners]))
+    # Corner by corner: W[corners] at once would be a [U, 3, B] temporary (280 MB for a 1M-face scan).
+    dense = bary[:, 0, None] * W[corners[:, 0]]
+    for k in (1, 2):
+        dense += bary[:, k, None] * W[corners[:, k]]
+    return _clean(dense)
 
 
 def _check_inputs(V, F, P, parents, owners):

@@ -1,0 +1,51 @@
+"""autorig.ahead: work begun in a forked child gives the caller exactly what it would have computed."""
+import os
+
+import numpy as np
+import pytest
+
+from autorig import ahead, attach
+from autorig.ahead import Ahead
+from autorig.pipeline import rig
+from autorig.samples import mannequin
+
+forks = pytest.mark.skipif(not hasattr(os, "fork") or (os.cpu_count() or 1) < 2, reason="needs fork and 2 CPUs")
+
+
+def _children() -> set[int]:
+    try:
+        return {int(p) for p in open(f"/proc/{os.getpid()}/task/{os.getpid()}/children").read().split()}
+    except OSError:
+        return set()
+
+
+@forks
+def test_value_comes_from_the_child_for_the_same_arguments_only():
+    data = np.arange(12.0).reshape(4, 3)
+    done = Ahead(lambda a: (os.getpid(), a * 2), (data,))
+    pid, value = done.result_if(data)
+    assert pid != os.getpid()               # made in the child
+    assert np.array_equal(value, data * 2)
+    assert done.result_if(data) is None     # read once
+    replaced = Ahead(lambda a: a * 2, (data,))
+    assert replaced.result_if(data.copy()) is None   # other objects: the caller computes afresh
+
+
+@forks
+def test_a_dropped_or_unwanted_handle_leaves_no_child():
+    before = _children()
+    Ahead(lambda: (__import__("time").sleep(30), 1), ())   # dropped unread: stopped, not waited 30 s for
+    assert _children() == before
+    assert Ahead(lambda: 1, (), wanted=False).result_if() is None
+
+
+def test_dense_mesh_rigs_the_same_with_and_without_the_child(monkeypatch):
+    sample = mannequin(pose="a", resolution=48)
+    # A heat surface this small makes the mannequin "dense": its simplified copy is what the child makes.
+    monkeypatch.setattr(attach, "HEAT_MAX_VERTICES", len(sample.vertices) // 3)
+    results = []
+    for enabled in (True, False):
+        monkeypatch.setattr(ahead, "ENABLED", enabled)
+        results.append(rig((sample.vertices, sample.faces)))
+    assert np.array_equal(results[0].joints, results[1].joints)
+    assert np.array_equal(results[0].weights, results[1].weights)
