@@ -1,9 +1,10 @@
 """Work started ahead on the second core: ``Ahead(fn, args)`` runs ``fn(*args)`` in a forked child process
 while this one goes on, and ``.result_if(*args)`` returns its value.
 
-Made for the skin weights of dense meshes: their simplified heat surface (``autorig.attach.heat_surface``)
-depends only on the mesh, so it is made while the skeleton stages run (a 1M-face scan: ~1.4 s of quadric
-decimation off the critical path). fast-simplification holds the GIL, so a thread would not overlap it.
+Made for the skin weights: the surface the heat is solved on and its Laplacian (``autorig.attach.heat_surface``)
+depend only on the mesh, so they are made while the skeleton stages run (a 1M-face scan: ~1.4 s of quadric
+decimation off the critical path; a 20k-face character with slivers: its intrinsic Delaunay Laplacian).
+fast-simplification and libigl hold the GIL, so a thread would not overlap them.
 
 The caller gets the same value whichever way it is made: without ``fork`` (Windows), with a single CPU, when
 the child fails, or with ``ENABLED`` off, ``result_if`` gives None and the caller computes it itself.

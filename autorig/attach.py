@@ -72,49 +72,48 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) ->
         W[:, int(np.flatnonzero(parents < 0)[0])] = 1.0
         return W
 
-    weld, Vw, Fw, coarse = surface or heat_surface(V, F)
+    weld, Vw, Fw, coarse, laplacian = surface or heat_surface(V, F)
     heads, tails = P[parents[bone_child]], P[bone_child]
     if coarse is not None:
-        Wb = _weights_via_coarse_surface(Vw, coarse, heads, tails)
+        Wb = _weights_via_coarse_surface(coarse, heads, tails, laplacian)
     else:
-        Wb = _bone_weights(Vw, Fw, heads, tails)                     # [U, B] on welded vertices
+        Wb = _bone_weights(Vw, Fw, heads, tails, laplacian)          # [U, B] on welded vertices
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
     return (Wb @ to_joint)[weld]
 
 
 def heat_surface(V, F):
-    """The surface the heat is solved on, which depends on the mesh alone: (weld [V], Vw [U, 3], Fw [F', 3]) of
-    ``weld_surface``, and when Vw has more than HEAT_MAX_VERTICES vertices its simplified copy (vertices [U', 3],
-    faces [G', 3]) for ``_weights_via_coarse_surface``, else None.
+    """The surface the heat is solved on and its Laplacian, which depend on the mesh alone (not the skeleton):
+    (weld [V], Vw [U, 3], Fw [F', 3]) of ``weld_surface``; coarse: when Vw has more than HEAT_MAX_VERTICES
+    vertices its simplified copy and where the dense vertices lie on it (``_coarse_copy``), else None;
+    laplacian: ``surface_laplacian`` of the surface solved on (the copy, or Vw, Fw).
 
     Heat equilibria are smooth, so a surface of HEAT_MAX_VERTICES vertices resolves them; past that the
     factorisation and the visibility rays only cost time and memory (a 1M-face scan)."""
     weld, Vw, Fw = weld_surface(np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64))
     if len(Vw) <= HEAT_MAX_VERTICES:
-        return weld, Vw, Fw, None
-    import fast_simplification
-    coarse_V, coarse_F = fast_simplification.simplify(Vw, Fw.astype(np.int32), target_count=2 * HEAT_MAX_VERTICES)
-    return weld, Vw, Fw, (np.asarray(coarse_V, dtype=np.float64), np.asarray(coarse_F, dtype=np.int64))
+        return weld, Vw, Fw, None, surface_laplacian(Vw, Fw)
+    coarse = _coarse_copy(Vw, Fw)
+    return weld, Vw, Fw, coarse, surface_laplacian(*coarse[:2])
 
 
 def start_heat_surface(prepared):
     """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.mesh.PreparedMesh``), begun now on the
-    second core when it has a simplified copy to make (``autorig.ahead``); ``.result_if(vertices, faces)``
-    gives it to ``bone_heat``'s ``surface``."""
+    second core (``autorig.ahead``); ``.result_if(vertices, faces)`` gives it to ``bone_heat``'s ``surface``."""
     from .ahead import Ahead
-    return Ahead(heat_surface, (prepared.vertices, prepared.faces),
-                 wanted=len(prepared.work_vertices) > HEAT_MAX_VERTICES)
+    return Ahead(heat_surface, (prepared.vertices, prepared.faces))
 
 
-def _weights_via_coarse_surface(V, coarse, heads, tails):
-    """Bone weights [U, B] of a dense surface's vertices V [U, 3], solved on its simplified copy ``coarse``
-    (vertices [U', 3], faces [G', 3]; see ``heat_surface``). Each dense vertex takes the weights at its closest
-    point on the simplified surface, interpolated across that triangle."""
+def _coarse_copy(V, F):
+    """The simplified copy of a dense welded surface V [U, 3], F [G, 3] that the heat is solved on, and where
+    each dense vertex lies on it: (vertices [U', 3], faces [G', 3], corners [U, 3] the copy's vertices of the
+    triangle closest to each dense vertex, bary [U, 3] the closest point's barycentric coordinates there)."""
+    import fast_simplification
     import igl
 
-    coarse_V, coarse_F = coarse
-    W = _bone_weights(coarse_V, coarse_F, heads, tails)
+    coarse_V, coarse_F = fast_simplification.simplify(V, F.astype(np.int32), target_count=2 * HEAT_MAX_VERTICES)
+    coarse_V, coarse_F = np.asarray(coarse_V, dtype=np.float64), np.asarray(coarse_F, dtype=np.int64)
     tree = igl.AABB()
     tree.init(coarse_V, coarse_F)
     _, face, closest = tree.squared_distance(coarse_V, coarse_F, V)
@@ -123,6 +122,15 @@ def _weights_via_coarse_surface(V, coarse, heads, tails):
                                        coarse_V[corners[:, 2]])
     bary = np.clip(np.nan_to_num(bary, nan=1.0 / 3.0), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
+    return coarse_V, coarse_F, corners, bary
+
+
+def _weights_via_coarse_surface(coarse, heads, tails, laplacian=None):
+    """Bone weights [U, B] of a dense surface's vertices, solved on its simplified copy ``coarse``
+    (``_coarse_copy``; laplacian: the copy's, if made already). Each dense vertex takes the weights at its
+    closest point on the simplified surface, interpolated across that triangle."""
+    coarse_V, coarse_F, corners, bary = coarse
+    W = _bone_weights(coarse_V, coarse_F, heads, tails, laplacian)
     # Corner by corner: W[corners] at once would be a [U, 3, B] temporary (280 MB for a 1M-face scan).
     dense = bary[:, 0, None] * W[corners[:, 0]]
     for k in (1, 2):
@@ -170,11 +178,11 @@ def weld_surface(V, F):
     return weld, Vw, Fw[distinct]
 
 
-def _bone_weights(V, F, heads, tails):
+def _bone_weights(V, F, heads, tails, laplacian=None):
     """Heat weights of each bone on a welded mesh.
 
-    V [U, 3], F [F, 3] (no repeated corners); heads, tails [B, 3] bone end points. Returns W [U, B], rows >= 0
-    summing to 1.
+    V [U, 3], F [F, 3] (no repeated corners); heads, tails [B, 3] bone end points; laplacian: its
+    ``surface_laplacian``, if made already. Returns W [U, B], rows >= 0 summing to 1.
     """
     dist = segment_distances(V, heads, tails)                        # [U, B]
     W = nearest_share(dist)                                          # kept only where there is no surface
@@ -185,7 +193,7 @@ def _bone_weights(V, F, heads, tails):
         scale = float(np.linalg.norm(np.ptp(V, axis=0))) or 1.0
         near, dmin = nearest_visible_bones(V, F, heads, tails, dist, surf)
         _heat_hidden_parts(V, F, surf, dist[surf], near, dmin)
-        W[surf] = solve_heat(V, F, surf, near, np.maximum(dmin, MIN_DIST * scale))
+        W[surf] = solve_heat(V, F, surf, near, np.maximum(dmin, MIN_DIST * scale), laplacian)
         # A vertex on no face (unreferenced, or only on faces that the weld collapsed) has no surface to
         # diffuse over: it moves with the closest surface point, so it stays with the part it belongs to.
         loose = np.flatnonzero(~on_face)
@@ -305,13 +313,14 @@ def _heat_hidden_parts(V, F, surf, dist, near, dmin):
         near[dark] = dist[dark] <= TIE_RATIO * dmin[dark, None]
 
 
-def solve_heat(V, F, surf, near, dmin):
+def solve_heat(V, F, surf, near, dmin, laplacian=None):
     """Solve (K + M H) w_b = M H p_b for every bone b on the vertices surf [N] (those on faces).
 
     V [U, 3], F [F, 3]; near [N, B] each vertex's nearest visible bones; dmin [N] the distance to them (inf:
-    no heat; every connected part has some heat). Returns W [N, B].
+    no heat; every connected part has some heat); laplacian: ``surface_laplacian(V, F)`` if made already.
+    Returns W [N, B].
     """
-    K, mass = surface_laplacian(V, F)
+    K, mass = laplacian or surface_laplacian(V, F)
     K, mass = K[surf][:, surf], mass[surf]
     h = np.where(np.isfinite(dmin), mass * HEAT_C / dmin ** 2, 0.0)   # diagonal of M H
     p = near / np.maximum(near.sum(axis=1, keepdims=True), 1)
