@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 import pickle
 import signal
+import warnings
 import weakref
 
 ENABLED = True
@@ -38,7 +39,12 @@ class Ahead:
         if not (wanted and ENABLED and hasattr(os, "fork") and _spare_core()):
             return
         read, write = os.pipe()
-        pid = os.fork()
+        with warnings.catch_warnings():
+            # Python 3.12+ warns about fork() in a process with threads (numpy's BLAS starts some), for fear of a
+            # lock another thread held at the fork. The child runs only numpy, libigl and fast-simplification on
+            # its own arrays and leaves with os._exit, never touching such a lock.
+            warnings.simplefilter("ignore", DeprecationWarning)
+            pid = os.fork()
         if pid == 0:   # the child: compute, send, and leave without running the parent's exit handlers
             code = 1
             try:

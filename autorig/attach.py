@@ -98,11 +98,48 @@ def heat_surface(V, F):
     return weld, Vw, Fw, coarse, surface_laplacian(*coarse[:2])
 
 
-def start_heat_surface(prepared):
+def start_heat_surface(prepared) -> "HeatSurfaceAhead":
     """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.mesh.PreparedMesh``), begun now on the
-    second core (``autorig.ahead``); ``.result_if(vertices, faces)`` gives it to ``bone_heat``'s ``surface``."""
-    from .ahead import Ahead
-    return Ahead(heat_surface, (prepared.vertices, prepared.faces))
+    second core (``autorig.ahead``) when the mesh is dense enough to be simplified for the heat; its
+    ``result_for`` gives it to ``bone_heat``'s ``surface``.
+
+    Below that the work is too small to pay for the fork: the pages a forked process shares with its parent
+    are copied when the parent writes to them (every Python object whose reference count changes), some
+    0.05 s of a 20k-face rig, as much as the heat surface's 0.04 s (60k faces: 0.15 s; 1M: ~2 s)."""
+    return HeatSurfaceAhead(prepared)
+
+
+class HeatSurfaceAhead:
+    """``heat_surface`` begun for a prepared mesh (see ``start_heat_surface``)."""
+
+    def __init__(self, prepared):
+        from .ahead import Ahead
+        self._prepared = prepared
+        self._ahead = Ahead(heat_surface, (prepared.vertices, prepared.faces),
+                            wanted=len(prepared.work_vertices) > HEAT_MAX_VERTICES)
+
+    def result_for(self, prepared):
+        """``heat_surface(prepared.vertices, prepared.faces)`` if it was begun for this very mesh, or the same for
+        the same mesh before the orientation moved it along x to the body's mid-plane (``PreparedMesh.centred_at``;
+        the welded positions are then taken from the moved mesh, the simplified copy moved along, equal to
+        rounding); None when it was not begun or the mesh was turned to other axes since (``bone_heat`` then
+        makes it)."""
+        start = self._prepared
+        moved = (prepared is not start and prepared.faces is start.faces and prepared.scale == start.scale
+                 and np.array_equal(prepared.rotation, start.rotation))
+        if prepared is not start and not moved:
+            self._ahead.result_if(None)    # stops the child
+            return None
+        value = self._ahead.result_if(start.vertices, start.faces)
+        if value is None or not moved:
+            return value
+        weld, Vw, Fw, coarse, laplacian = value
+        first = np.unique(weld, return_index=True)[1]                 # each welded vertex's first input vertex
+        Vw = np.asarray(prepared.vertices, dtype=np.float64)[first]
+        if coarse is not None:
+            shift = value[1][0] - Vw[0]
+            coarse = (coarse[0] - shift, *coarse[1:])
+        return weld, Vw, Fw, coarse, laplacian
 
 
 def _coarse_copy(V, F):

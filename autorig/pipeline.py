@@ -98,7 +98,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         joints = in_convention(joints, template, convention, field)
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents,
-                            surface=heat_surface.result_if(prepared.vertices, prepared.faces))
+                            surface=heat_surface.result_for(prepared))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight.

@@ -8,9 +8,10 @@ templates resolve through the install). Made for "is the new commit faster, and 
 
 - time: the meshes of ``benchmarks/speed.py`` (built once), each rigged as a user runs it (a fresh
   ``autorig MESH -o OUT.glb`` process, axes detected) by old and new in turn, alternating which goes first, so
-  that load from other work on the machine falls on both alike. Printed: median wall time, median CPU time
-  (user + system, the autorig process and its children) and peak RSS of each side, the ratios new / old, and
-  the load average after each mesh (above the CPU count, the wall times mostly measure the wait for a core).
+  that load from other work on the machine falls on both alike. Printed per side: median wall time, median CPU
+  time (user + system) of the autorig process with its children and of the process alone ("main": what stays
+  on its path when work moves to a child on another core), peak RSS; the ratios new / old, and the load
+  average after each mesh (above the CPU count, the wall times mostly measure the wait for a core).
 - rigs: every shared mesh (``shared/data/meshes/*.obj`` and ``shared/data/rigged/*/mesh.obj``, with the
   template and axes ``benchmarks/batch_speed.py`` gives them) rigged by both sides to JSON. Per mesh: the
   largest joint distance between the two rigs as a fraction of the mesh's height (its extent along the up
@@ -45,8 +46,10 @@ TOP1_TOLERANCE = 0.005   # share of vertices
 NEUTRAL = tempfile.gettempdir()
 
 
-# As benchmarks/speed.py's launcher, plus the CPU time (user + system) of the autorig process and the children it
-# waited for: on a machine busy with other work the wall time mostly measures the wait for a core.
+# As benchmarks/speed.py's launcher, plus CPU times (user + system): of the autorig process and the children it
+# waited for, and of the autorig process alone ("main": read from /proc while it is a zombie, before it is
+# reaped). On a machine busy with other work the wall time mostly measures the wait for a core; the main
+# process's CPU time is what remains on its path when work moves to a child process on another core.
 LAUNCHER = """
 import os, sys, time
 start = time.perf_counter()
@@ -54,20 +57,24 @@ pid = os.fork()
 if pid == 0:
     os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
     os.execv(sys.executable, [sys.executable, "-m", "autorig.cli", *sys.argv[1:]])
+os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
+wall = time.perf_counter() - start
+fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+main = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")   # utime + stime, the process alone
 _, status, usage = os.wait4(pid, 0)
-print(time.perf_counter() - start, usage.ru_utime + usage.ru_stime, usage.ru_maxrss // 1024,
-      os.waitstatus_to_exitcode(status))
+print(wall, usage.ru_utime + usage.ru_stime, main, usage.ru_maxrss // 1024, os.waitstatus_to_exitcode(status))
 """
 
 
-def timed(python: str, args: list[str]) -> tuple[float, float, int]:
-    """(wall seconds, CPU seconds, peak RSS in MB) of one ``autorig`` process run by ``python``."""
+def timed(python: str, args: list[str]) -> tuple[float, float, float, int]:
+    """(wall seconds, CPU seconds with children, CPU seconds of the process alone, peak RSS in MB) of one
+    ``autorig`` process run by ``python``."""
     done = subprocess.run([python, "-c", LAUNCHER, *args], capture_output=True, text=True, env=USER_ENV,
                           cwd=NEUTRAL)
-    seconds, cpu, rss, code = done.stdout.split()
+    seconds, cpu, main, rss, code = done.stdout.split()
     if int(code):
         raise RuntimeError(f"{python} -m autorig {' '.join(args)} failed: {done.stderr.strip()}")
-    return float(seconds), float(cpu), int(rss)
+    return float(seconds), float(cpu), float(main), int(rss)
 
 
 def compare_time(sides: dict[str, str], sizes: list[int], names: set[str], runs: int, shared: Path) -> None:
@@ -76,19 +83,21 @@ def compare_time(sides: dict[str, str], sizes: list[int], names: set[str], runs:
         meshes = [m for m in build_meshes(folder, sizes, shared) if m[0] in names]
         for python in sides.values():   # warm-up: bytecode and file caches
             timed(python, [str(meshes[0][2]), "-o", str(folder / "out.glb")])
-        print(f"{'mesh':10s} {'faces':>8s} " + " ".join(f"{s + ' s':>7s} {s + ' cpu':>8s} {s + ' MB':>7s}" for s in sides)
-              + f" {'wall new/old':>12s} {'cpu new/old':>11s}  load")
+        print(f"{'mesh':10s} {'faces':>8s} " + " ".join(f"{s + ' s':>7s} {s + ' cpu':>8s} {s + ' main':>8s} "
+                                                     f"{s + ' MB':>7s}" for s in sides)
+              + "   new/old: wall    cpu   main  load")
         for name, size, path, flags in meshes:
-            results: dict[str, list[tuple[float, float, int]]] = {side: [] for side in sides}
+            results: dict[str, list[tuple[float, float, float, int]]] = {side: [] for side in sides}
             for run in range(runs if size < 1_000_000 else max(1, (runs + 1) // 2)):
                 order = list(sides) if run % 2 == 0 else list(sides)[::-1]
                 for side in order:
                     results[side].append(timed(sides[side], [str(path), "-o", str(folder / f"{side}.glb"), *flags]))
-            wall = {side: statistics.median(r[0] for r in rs) for side, rs in results.items()}
-            cpu = {side: statistics.median(r[1] for r in rs) for side, rs in results.items()}
-            rss = {side: max(r[2] for r in rs) for side, rs in results.items()}
-            print(f"{name:10s} {size:8d} " + " ".join(f"{wall[s]:7.2f} {cpu[s]:8.2f} {rss[s]:7d}" for s in sides)
-                  + f" {wall['new'] / wall['old']:12.2f} {cpu['new'] / cpu['old']:11.2f}  {os.getloadavg()[0]:.1f}",
+            median = {side: [statistics.median(r[k] for r in rs) for k in range(3)] for side, rs in results.items()}
+            rss = {side: max(r[3] for r in rs) for side, rs in results.items()}
+            ratios = [median["new"][k] / median["old"][k] for k in range(3)]
+            print(f"{name:10s} {size:8d} " + " ".join(f"{median[s][0]:7.2f} {median[s][1]:8.2f} {median[s][2]:8.2f} "
+                                                     f"{rss[s]:7d}" for s in sides)
+                  + "            " + " ".join(f"{r:6.2f}" for r in ratios) + f"  {os.getloadavg()[0]:4.1f}",
                   flush=True)
 
 
