@@ -6,8 +6,9 @@ depend only on the mesh, so they are made while the skeleton stages run (a 1M-fa
 decimation off the critical path; a 20k-face character with slivers: its intrinsic Delaunay Laplacian).
 fast-simplification and libigl hold the GIL, so a thread would not overlap them.
 
-The caller gets the same value whichever way it is made: without ``fork`` (Windows), with a single CPU, when
-the child fails, or with ``ENABLED`` off, ``result_if`` gives None and the caller computes it itself.
+The caller gets the same value whichever way it is made: off Linux (Windows has no fork; macOS's system
+libraries are not safe to use in a forked child), with a single CPU, when the child fails, or with ``ENABLED``
+off, ``result_if`` gives None and the caller computes it itself.
 ``autorig batch`` turns it off in its workers, whose pool already keeps every core busy. The child writes its
 value down a pipe and ends; a handle dropped unread stops its child.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 import os
 import pickle
 import signal
+import sys
 import warnings
 import weakref
 
@@ -23,10 +25,7 @@ ENABLED = True
 
 
 def _spare_core() -> bool:
-    try:
-        return len(os.sched_getaffinity(0)) >= 2
-    except AttributeError:  # not on Linux
-        return (os.cpu_count() or 1) >= 2
+    return len(os.sched_getaffinity(0)) >= 2
 
 
 class Ahead:
@@ -36,7 +35,7 @@ class Ahead:
     def __init__(self, fn, args: tuple, wanted: bool = True):
         self._args = args
         self._child = None
-        if not (wanted and ENABLED and hasattr(os, "fork") and _spare_core()):
+        if not (wanted and ENABLED and sys.platform.startswith("linux") and _spare_core()):
             return
         read, write = os.pipe()
         with warnings.catch_warnings():
