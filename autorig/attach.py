@@ -40,7 +40,7 @@ HEAT_MAX_VERTICES = 12_000  # denser surfaces are solved on a simplified copy (s
 _GENERIC_DIRECTION = np.array([0.5377, 0.8335, 0.1274]) / np.linalg.norm([0.5377, 0.8335, 0.1274])
 
 
-def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
+def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) -> np.ndarray:
     """Bone-heat skin weights of a mesh for a skeleton.
 
     vertices [V, 3] float: the mesh as given (may be multi-part, open, non-manifold, with duplicate vertices
@@ -50,6 +50,7 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
     parents  [J] int: parent joint of each joint, -1 for a root; parents come before their children.
     owners   [J] int, optional: for each non-root joint c, the weight column that receives the heat of the
         bone parent(c) -> c. Default ``parents``: a joint owns the bones that leave it, as in glTF skinning.
+    surface  optional: ``heat_surface(vertices, faces)``, made beforehand (``autorig.ahead``).
 
     Returns W [V, J] float64: W[i, j] is how much vertex i follows joint j's transform. Rows are >= 0 and sum
     to 1; joints that own no bone (tips) get zero columns. A skeleton without any bone (a single joint) gets
@@ -71,31 +72,85 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None) -> np.ndarray:
         W[:, int(np.flatnonzero(parents < 0)[0])] = 1.0
         return W
 
-    weld, Vw, Fw = weld_surface(V, F)
+    weld, Vw, Fw, coarse, laplacian = surface or heat_surface(V, F)
     heads, tails = P[parents[bone_child]], P[bone_child]
-    if len(Vw) > HEAT_MAX_VERTICES:
-        Wb = _weights_via_coarse_surface(Vw, Fw, heads, tails)
+    if coarse is not None:
+        Wb = _weights_via_coarse_surface(coarse, heads, tails, laplacian)
     else:
-        Wb = _bone_weights(Vw, Fw, heads, tails)                     # [U, B] on welded vertices
+        Wb = _bone_weights(Vw, Fw, heads, tails, laplacian)          # [U, B] on welded vertices
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
     return (Wb @ to_joint)[weld]
 
 
-def _weights_via_coarse_surface(V, F, heads, tails):
-    """Bone weights [U, B] of a dense surface V [U, 3], F [G, 3], solved on a simplified copy of it.
+def heat_surface(V, F):
+    """The surface the heat is solved on and its Laplacian, which depend on the mesh alone (not the skeleton):
+    (weld [V], Vw [U, 3], Fw [F', 3]) of ``weld_surface``; coarse: when Vw has more than HEAT_MAX_VERTICES
+    vertices its simplified copy and where the dense vertices lie on it (``_coarse_copy``), else None;
+    laplacian: ``surface_laplacian`` of the surface solved on (the copy, or Vw, Fw).
 
     Heat equilibria are smooth, so a surface of HEAT_MAX_VERTICES vertices resolves them; past that the
-    factorisation and the visibility rays only cost time and memory (a 1M-face scan). Each dense vertex
-    takes the weights at its closest point on the simplified surface, interpolated across that triangle.
-    """
+    factorisation and the visibility rays only cost time and memory (a 1M-face scan)."""
+    weld, Vw, Fw = weld_surface(np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64))
+    if len(Vw) <= HEAT_MAX_VERTICES:
+        return weld, Vw, Fw, None, surface_laplacian(Vw, Fw)
+    coarse = _coarse_copy(Vw, Fw)
+    return weld, Vw, Fw, coarse, surface_laplacian(*coarse[:2])
+
+
+def start_heat_surface(prepared) -> "HeatSurfaceAhead":
+    """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.mesh.PreparedMesh``), begun now on the
+    second core (``autorig.ahead``) when the mesh is dense enough to be simplified for the heat; its
+    ``result_for`` gives it to ``bone_heat``'s ``surface``.
+
+    Below that the work is too small to pay for the fork: the pages a forked process shares with its parent
+    are copied when the parent writes to them (every Python object whose reference count changes), some
+    0.05 s of a 20k-face rig, as much as the heat surface's 0.04 s (60k faces: 0.15 s; 1M: ~2 s)."""
+    return HeatSurfaceAhead(prepared)
+
+
+class HeatSurfaceAhead:
+    """``heat_surface`` begun for a prepared mesh (see ``start_heat_surface``)."""
+
+    def __init__(self, prepared):
+        from .ahead import Ahead
+        self._prepared = prepared
+        self._ahead = Ahead(heat_surface, (prepared.vertices, prepared.faces),
+                            wanted=len(prepared.work_vertices) > HEAT_MAX_VERTICES)
+
+    def result_for(self, prepared):
+        """``heat_surface(prepared.vertices, prepared.faces)`` if it was begun for this very mesh, or the same for
+        the same mesh before the orientation moved it along x to the body's mid-plane (``PreparedMesh.centred_at``;
+        the welded positions are then taken from the moved mesh, the simplified copy moved along, equal to
+        rounding); None when it was not begun or the mesh was turned to other axes since (``bone_heat`` then
+        makes it)."""
+        start = self._prepared
+        moved = (prepared is not start and prepared.faces is start.faces and prepared.scale == start.scale
+                 and np.array_equal(prepared.rotation, start.rotation))
+        if prepared is not start and not moved:
+            self._ahead.result_if(None)    # stops the child
+            return None
+        value = self._ahead.result_if(start.vertices, start.faces)
+        if value is None or not moved:
+            return value
+        weld, Vw, Fw, coarse, laplacian = value
+        first = np.unique(weld, return_index=True)[1]                 # each welded vertex's first input vertex
+        Vw = np.asarray(prepared.vertices, dtype=np.float64)[first]
+        if coarse is not None:
+            shift = value[1][0] - Vw[0]
+            coarse = (coarse[0] - shift, *coarse[1:])
+        return weld, Vw, Fw, coarse, laplacian
+
+
+def _coarse_copy(V, F):
+    """The simplified copy of a dense welded surface V [U, 3], F [G, 3] that the heat is solved on, and where
+    each dense vertex lies on it: (vertices [U', 3], faces [G', 3], corners [U, 3] the copy's vertices of the
+    triangle closest to each dense vertex, bary [U, 3] the closest point's barycentric coordinates there)."""
     import fast_simplification
     import igl
 
     coarse_V, coarse_F = fast_simplification.simplify(V, F.astype(np.int32), target_count=2 * HEAT_MAX_VERTICES)
-    coarse_V = np.asarray(coarse_V, dtype=np.float64)
-    coarse_F = np.asarray(coarse_F, dtype=np.int64)
-    W = _bone_weights(coarse_V, coarse_F, heads, tails)
+    coarse_V, coarse_F = np.asarray(coarse_V, dtype=np.float64), np.asarray(coarse_F, dtype=np.int64)
     tree = igl.AABB()
     tree.init(coarse_V, coarse_F)
     _, face, closest = tree.squared_distance(coarse_V, coarse_F, V)
@@ -104,7 +159,20 @@ def _weights_via_coarse_surface(V, F, heads, tails):
                                        coarse_V[corners[:, 2]])
     bary = np.clip(np.nan_to_num(bary, nan=1.0 / 3.0), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
-    return _clean(np.einsum("nk,nkb->nb", bary, W[corners]))
+    return coarse_V, coarse_F, corners, bary
+
+
+def _weights_via_coarse_surface(coarse, heads, tails, laplacian=None):
+    """Bone weights [U, B] of a dense surface's vertices, solved on its simplified copy ``coarse``
+    (``_coarse_copy``; laplacian: the copy's, if made already). Each dense vertex takes the weights at its
+    closest point on the simplified surface, interpolated across that triangle."""
+    coarse_V, coarse_F, corners, bary = coarse
+    W = _bone_weights(coarse_V, coarse_F, heads, tails, laplacian)
+    # Corner by corner: W[corners] at once would be a [U, 3, B] temporary (280 MB for a 1M-face scan).
+    dense = bary[:, 0, None] * W[corners[:, 0]]
+    for k in (1, 2):
+        dense += bary[:, k, None] * W[corners[:, k]]
+    return _clean(dense)
 
 
 def _check_inputs(V, F, P, parents, owners):
@@ -147,11 +215,11 @@ def weld_surface(V, F):
     return weld, Vw, Fw[distinct]
 
 
-def _bone_weights(V, F, heads, tails):
+def _bone_weights(V, F, heads, tails, laplacian=None):
     """Heat weights of each bone on a welded mesh.
 
-    V [U, 3], F [F, 3] (no repeated corners); heads, tails [B, 3] bone end points. Returns W [U, B], rows >= 0
-    summing to 1.
+    V [U, 3], F [F, 3] (no repeated corners); heads, tails [B, 3] bone end points; laplacian: its
+    ``surface_laplacian``, if made already. Returns W [U, B], rows >= 0 summing to 1.
     """
     dist = segment_distances(V, heads, tails)                        # [U, B]
     W = nearest_share(dist)                                          # kept only where there is no surface
@@ -162,7 +230,7 @@ def _bone_weights(V, F, heads, tails):
         scale = float(np.linalg.norm(np.ptp(V, axis=0))) or 1.0
         near, dmin = nearest_visible_bones(V, F, heads, tails, dist, surf)
         _heat_hidden_parts(V, F, surf, dist[surf], near, dmin)
-        W[surf] = solve_heat(V, F, surf, near, np.maximum(dmin, MIN_DIST * scale))
+        W[surf] = solve_heat(V, F, surf, near, np.maximum(dmin, MIN_DIST * scale), laplacian)
         # A vertex on no face (unreferenced, or only on faces that the weld collapsed) has no surface to
         # diffuse over: it moves with the closest surface point, so it stays with the part it belongs to.
         loose = np.flatnonzero(~on_face)
@@ -282,13 +350,14 @@ def _heat_hidden_parts(V, F, surf, dist, near, dmin):
         near[dark] = dist[dark] <= TIE_RATIO * dmin[dark, None]
 
 
-def solve_heat(V, F, surf, near, dmin):
+def solve_heat(V, F, surf, near, dmin, laplacian=None):
     """Solve (K + M H) w_b = M H p_b for every bone b on the vertices surf [N] (those on faces).
 
     V [U, 3], F [F, 3]; near [N, B] each vertex's nearest visible bones; dmin [N] the distance to them (inf:
-    no heat; every connected part has some heat). Returns W [N, B].
+    no heat; every connected part has some heat); laplacian: ``surface_laplacian(V, F)`` if made already.
+    Returns W [N, B].
     """
-    K, mass = surface_laplacian(V, F)
+    K, mass = laplacian or surface_laplacian(V, F)
     K, mass = K[surf][:, surf], mass[surf]
     h = np.where(np.isfinite(dmin), mass * HEAT_C / dmin ** 2, 0.0)   # diagonal of M H
     p = near / np.maximum(near.sum(axis=1, keepdims=True), 1)

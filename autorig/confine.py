@@ -17,7 +17,6 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import unquote, urlparse
-from urllib.request import url2pathname
 
 ALLOW_HINT = "--allow-outside-paths to allow"
 
@@ -75,6 +74,8 @@ def uri_file(uri: str, folder: str | os.PathLike, root: str | os.PathLike, allow
     if uri.lower().startswith("file:"):
         if not allow_outside:
             raise Refused(f"a file: URI, outside the asset's folder ({ALLOW_HINT})")
+        # Here, not at the top: urllib.request imports http.client and ssl (~10 ms of every rig's start).
+        from urllib.request import url2pathname
         return Path(os.path.realpath(url2pathname(urlparse(uri).path)))
     if _SCHEME.match(uri) and not _WINDOWS_ABSOLUTE.match(uri):
         raise Refused(f"a {uri.split(':', 1)[0]}: URI; autorig reads only files")

@@ -470,9 +470,9 @@ def _open_piece_facing(V: np.ndarray, F: np.ndarray) -> float:
     step = 0.01 * np.sqrt(twice_area[pick])[:, None]   # well within the triangle's own reach
     centre = T[pick].mean(axis=1)
     points = np.vstack([centre - step * unit, centre + step * unit])
-    used, local = np.unique(F, return_inverse=True)    # the piece alone: the winding tree over its vertices
+    used, renumber = _used_vertices(len(V), F)         # the piece alone: the winding tree over its vertices
     winding = igl.fast_winding_number(np.ascontiguousarray(V[used], dtype=np.float64),
-                                      np.ascontiguousarray(local.reshape(F.shape), dtype=np.int64), points)
+                                      np.ascontiguousarray(renumber[F], dtype=np.int64), points)
     return float(np.average(winding[:len(pick)] + winding[len(pick):], weights=twice_area[pick]))
 
 

@@ -71,7 +71,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         skeleton extracted from the shape itself (``autorig.extract``).
     Returns a ``Rig`` in the input's own coordinates, weights for every input vertex in input order.
     """
-    from .attach import bone_heat
+    from .attach import bone_heat, start_heat_surface
     from .confidence import rig_confidence
     from .convention import convention_named, convention_shift, in_convention
     from .landmarks import neck_fraction
@@ -93,6 +93,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     convention, _ = convention_named(template, options.convention)   # an unknown name fails before the work
     with stage("prepare"):
         prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name, checked=True)
+        heat_surface = start_heat_surface(prepared)   # a dense mesh's heat surface, made beside the skeleton
     field, graph = discretize(prepared, stage)
     with stage("orientation"):
         frame = detect_orientation(prepared, field, graph, template, options.up, options.front)
@@ -114,9 +115,11 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         with stage("hands"):
             fingers = read_fingers(prepared.vertices, prepared.faces, template.names, joints)
     with stage("skin weights"):
-        weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents) if fingers is None else
+        surface = heat_surface.result_for(prepared)
+        weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents, surface=surface)
+                   if fingers is None else
                    skin_with_fingers(prepared.vertices, prepared.faces, joints, template.parents, template.names,
-                                     fingers))
+                                     fingers, surface=surface))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.

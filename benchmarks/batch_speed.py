@@ -2,7 +2,7 @@
 
     python benchmarks/batch_speed.py [--shared ../shared] [--runs 3] [--no-cluster] [--keep DIR]
 
-The folder is made in a temporary directory (never in the repo) of symlinks to ``shared/data/meshes/*.obj`` and
+The folder is made in a temporary directory (never in the repo) of copies of ``shared/data/meshes/*.obj`` and
 ``shared/data/rigged/*/mesh.obj`` (as ``rigged/<name>.obj``), with an ``autorig.toml`` that gives each its
 template and axes. Some are not bipeds or not even volumes (woody and alligator are flat cut-outs, spider is in
 pieces, octopus has eight legs, RiggedSimple and huesitos are tubes): they rig or fail cleanly, which is the
@@ -21,6 +21,7 @@ import contextlib
 import json
 import os
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -119,15 +120,16 @@ def main() -> int:
 
 
 def make_folder(data: Path, folder: Path) -> Path:
+    # Copies, not symlinks: a batch refuses an asset whose symlink leads out of its input folder.
     (folder / "rigged").mkdir(parents=True, exist_ok=True)
     for mesh in sorted((data / "meshes").glob("*.obj")):
-        link = folder / mesh.name
-        if not link.exists():
-            link.symlink_to(mesh.resolve())
+        copy = folder / mesh.name
+        if not copy.exists():
+            shutil.copyfile(mesh, copy)
     for mesh in sorted((data / "rigged").glob("*/mesh.obj")):
-        link = folder / "rigged" / f"{mesh.parent.name}.obj"
-        if not link.exists():
-            link.symlink_to(mesh.resolve())
+        copy = folder / "rigged" / f"{mesh.parent.name}.obj"
+        if not copy.exists():
+            shutil.copyfile(mesh, copy)
     (folder / "autorig.toml").write_text(CONFIG)
     return folder
 

@@ -39,9 +39,11 @@ class Job:
 def rig_one(job: Job) -> dict:
     """Rig one asset in a worker (a local process or a Dask worker): write its files to a scratch folder,
     rig, write the output there and return the output's bytes. Never raises for a problem with the asset."""
+    from .. import ahead
     from ..exchange import write_rig
     from ..pipeline import rig, skin
 
+    ahead.ENABLED = False   # the pool keeps every core busy already: no helper processes of its own
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, quiet_libraries():
         source = Path(scratch, "in")

@@ -80,7 +80,7 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
     return out
 
 
-def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers) -> np.ndarray:
+def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers, surface=None) -> np.ndarray:
     """Bone-heat weights [V, J + K] of the rig's J joints (joints [J, 3], parents [J], names [J]) and the K
     finger joints (``read_fingers``); rows >= 0 summing to 1, every vertex weighted.
 
@@ -90,11 +90,13 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers)
     finger. The hand's weights replace the body's from the wrist on, blended smoothly over the forearm
     between the cut and the wrist, where both solutions agree on the forearm. The body's solve keeps its
     size (a 30k-face character: one solve of 23 bones, not of 63), and the fingers get the hand's
-    triangles rather than the body's simplified copy."""
+    triangles rather than the body's simplified copy. ``surface``: the body's heat surface made beforehand, as
+    ``attach.bone_heat`` takes it (None: made here)."""
     from ..attach import bone_heat
 
     names = list(names)
-    weights = np.hstack([bone_heat(vertices, faces, joints, parents), np.zeros((len(vertices), len(fingers.names)))])
+    weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface),
+                         np.zeros((len(vertices), len(fingers.names)))])
     column = {n: i for i, n in enumerate(names + fingers.names)}
     for side, status in fingers.status.items():
         if status != "fingers":
