@@ -64,14 +64,15 @@ def build_meshes(folder: Path, sizes: list[int], shared: Path) -> list[tuple[str
 
 # A fresh, small Python forks and execs autorig and reports the child's peak RSS: wait4 in this process
 # would count the pages a fork inherits from it, and it holds the benchmark meshes.
-LAUNCHER = """
+FORK_AND_EXEC = """
 import os, sys, time
 start = time.perf_counter()
 pid = os.fork()
 if pid == 0:
     os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
     os.execv(sys.executable, [sys.executable, "-m", "autorig.cli", *sys.argv[1:]])
-_, status, usage = os.wait4(pid, 0)
+"""
+LAUNCHER = FORK_AND_EXEC + """_, status, usage = os.wait4(pid, 0)
 print(time.perf_counter() - start, usage.ru_maxrss // 1024, os.waitstatus_to_exitcode(status))
 """
 

@@ -36,7 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from batch_speed import CONFIG  # noqa: E402  (the benchmarks are scripts, not a package)
-from speed import USER_ENV, build_meshes  # noqa: E402
+from speed import FORK_AND_EXEC, USER_ENV, build_meshes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 JOINT_TOLERANCE = 1e-3   # of the height
@@ -50,14 +50,7 @@ NEUTRAL = tempfile.gettempdir()
 # waited for, and of the autorig process alone ("main": read from /proc while it is a zombie, before it is
 # reaped). On a machine busy with other work the wall time mostly measures the wait for a core; the main
 # process's CPU time is what remains on its path when work moves to a child process on another core.
-LAUNCHER = """
-import os, sys, time
-start = time.perf_counter()
-pid = os.fork()
-if pid == 0:
-    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
-    os.execv(sys.executable, [sys.executable, "-m", "autorig.cli", *sys.argv[1:]])
-os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
+LAUNCHER = FORK_AND_EXEC + """os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
 wall = time.perf_counter() - start
 fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
 main = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")   # utime + stime, the process alone
