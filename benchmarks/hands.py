@@ -5,7 +5,8 @@ Every ``makehuman_*`` folder of the corpus (20 T-posed and 4 A-posed bodies, eac
 digit and the rig's own weights) is read twice per hand:
 
 - ``gt``: with the ground-truth wrist and elbow (the hands stage alone), on the GT body skeleton;
-- ``e2e``: end to end, ``autorig.rig(mesh, "biped", RigOptions(fingers=True))``, axes detected.
+- ``e2e``: end to end, ``autorig.rig(mesh, "biped", RigOptions(fingers=True))`` (``--template humanoid``: the
+  humanoid's), axes detected.
 
 Scores per hand: finger joint error (joints 1-3 of all five digits; Mixamo has no tip joints) as % of the hand's
 length (GT wrist to the GT middle fingertip: the vertex farthest from the wrist among those the artist's weights
@@ -23,7 +24,7 @@ error they give, and the leave-one-body-out error (each body scored with fractio
 times with and five without ``fingers=True`` and prints the medians of the hands stage, the skin weights and
 the whole rig.
 
-    PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e] [--shared] [--speed MESH]
+    PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e] [--template T] [--shared] [--speed MESH]
 """
 from __future__ import annotations
 
@@ -128,11 +129,11 @@ def run_gt(body):
     return score(V, W, gt, names, r_names, r_joints, weights, fingers.status), seconds
 
 
-def run_e2e(folder, body):
-    """Scores of ``autorig.rig(mesh, "biped", fingers=True)``, and the hands stage's time in it."""
+def run_e2e(folder, body, template="biped"):
+    """Scores of ``autorig.rig(mesh, template, fingers=True)``, and the hands stage's time in it."""
     import autorig
     V, F, gt, names, _, W, _ = body
-    rig = autorig.rig(os.path.join(folder, "mesh.obj"), "biped", autorig.RigOptions(fingers=True))
+    rig = autorig.rig(os.path.join(folder, "mesh.obj"), template, autorig.RigOptions(fingers=True))
     return (score(V, W, gt, names, rig.names, rig.joints, rig.weights, rig.info.get("hands", {})),
             rig.timings.get("hands", 0.0))
 
@@ -242,6 +243,7 @@ def main():
     parser.add_argument("--no-e2e", action="store_true", help="only with the GT wrists and elbows")
     parser.add_argument("--speed", metavar="MESH", help="time the hands stage on MESH instead")
     parser.add_argument("--shared", action="store_true", help="what the shared meshes' hands are read as")
+    parser.add_argument("--template", default="biped", help="end to end with this template (biped, humanoid)")
     parser.add_argument("--data", default=os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data"))
     args = parser.parse_args()
     if args.shared:
@@ -263,11 +265,11 @@ def main():
         gt_rows.append((os.path.basename(folder), body[-1], scores))
         stage.append(seconds)
         if not args.no_e2e:
-            scores, seconds = run_e2e(folder, body)
+            scores, seconds = run_e2e(folder, body, args.template)
             e2e_rows.append((os.path.basename(folder), body[-1], scores))
     summary("GT wrists and elbows given", gt_rows)
     if e2e_rows:
-        summary("end to end (biped + --fingers)", e2e_rows)
+        summary(f"end to end ({args.template} + --fingers)", e2e_rows)
     print(f"\nhands stage (both hands, read_fingers): median {1000 * np.median(stage):.0f} ms per body")
 
 

@@ -224,6 +224,16 @@ def test_a_mixamo_motion_with_finger_curves_moves_the_fingers(fingered_rig, tmp_
     # The neighbour's skin by the web shares some weight with the index finger; the rest of it stays put.
     assert np.median(moved[on("left_middle") | on("left_ring")]) < 0.002 * length
     assert moved[on("right_")].max() < 1e-6
+    # The animated rig autorig pose writes plays in Blender, the finger with it (one BVH frame per Blender
+    # frame): at frame 1 the index finger's skin has moved, and no part of the body as far as a hand's length.
+    from test_blender import BLENDER, blender_report
+    if BLENDER is None:
+        return
+    done = _cli("pose", rig_path, "-m", motion, "-o", tmp_path / "curl.glb")
+    assert done.returncode == 0, done.stderr
+    report = blender_report(tmp_path / "curl.glb", "mixamorig:LeftHandIndex2", frame=1)
+    assert report["armatures"] == 1
+    assert 0.04 * length < report["moved_at_frame"] < 0.5 * length
 
 
 def test_blender_loads_the_fbx_with_mixamos_finger_bones_and_they_move_the_fingers(fingered_rig, tmp_path):
