@@ -127,6 +127,26 @@ def test_killed_and_resumed_gives_the_uninterrupted_outputs_and_report(assets, r
     assert not [p for p in (assets / "resumed").rglob("*.tmp")]
 
 
+def _wait_until_gone(group: int, timeout: float = 30.0) -> None:
+    """Wait until no live process of the process ``group`` is left (zombies have closed their files). The
+    batch's worker processes, forked with the lock's descriptor, hold the flock too; SIGKILLed, they end a
+    moment after the leader the test waited for (a CI run once started the next batch inside that moment)."""
+    def alive() -> bool:
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except (OSError, IndexError):
+                continue   # ended while we looked
+            if int(fields[2]) == group and fields[0] != "Z":
+                return True
+        return False
+
+    deadline = time.monotonic() + timeout
+    while alive():
+        assert time.monotonic() < deadline, f"processes of group {group} still running {timeout} s after SIGKILL"
+        time.sleep(0.02)
+
+
 def test_a_second_batch_on_the_same_output_folder_refuses(assets, reference):
     first = batch(assets, "locked")
     lock = assets / "locked" / ".autorig-batch.lock"
@@ -144,6 +164,7 @@ def test_a_second_batch_on_the_same_output_folder_refuses(assets, reference):
     finally:
         os.killpg(first.pid, signal.SIGKILL)
         first.wait(timeout=60)
+        _wait_until_gone(first.pid)
     # Killed, it holds the lock no more.
     third = CliRunner().invoke(cli, ["batch", str(assets / "in"), "-o", str(assets / "locked"), "-j", "1",
                                      "--skeleton", str(assets / "skeleton.json")], prog_name="autorig")
