@@ -34,6 +34,7 @@ class HandSurface:
     geodesic   [N] distance over the surface from the cut ring (0 on it)
     axis       [3] unit forearm direction, elbow -> wrist
     forearm    forearm length (elbow to wrist)
+    piece      the full-resolution piece it was read off (``hand_piece``), which the hand's weights heat
     """
     vertices: np.ndarray
     faces: np.ndarray
@@ -41,6 +42,7 @@ class HandSurface:
     geodesic: np.ndarray
     axis: np.ndarray
     forearm: float
+    piece: "HandPiece"
 
 
 @dataclass
@@ -118,7 +120,7 @@ def hand_surface(vertices, faces, wrist, elbow) -> HandSurface | None:
         return None
     geodesic = dijkstra(graph, directed=False, indices=seeds, min_only=True)
     geodesic[~np.isfinite(geodesic)] = 0.0
-    return HandSurface(HV, HF, graph, geodesic, axis, forearm)
+    return HandSurface(HV, HF, graph, geodesic, axis, forearm, piece)
 
 
 def _cut_ring(V, F, along, ring_reach) -> np.ndarray:

@@ -22,12 +22,15 @@ class Fingers:
     positions  [K, 3] in the frame of the joints they were read with
     status     {side: "fingers" | "mitten" | "fist" | "unclear" | "too coarse"} for each side read
     palm_normals  {side: [3] unit normal out of the palm} for the sides with fingers
+    pieces     {side: the hand's full-resolution piece of surface (``region.hand_piece``)} for the sides with
+               fingers, kept for their weights (``skin_with_fingers``) rather than cut out of the mesh again
     """
     names: list[str] = field(default_factory=list)
     parents: list[str] = field(default_factory=list)
     positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     status: dict[str, str] = field(default_factory=dict)
     palm_normals: dict[str, np.ndarray] = field(default_factory=dict)
+    pieces: dict = field(default_factory=dict)
 
     def appended(self, names, parents, joints, weights):
         """(names [J + K], parents [J + K], joints [J + K, 3], weights [V, J + K]) of a rig's J joints with
@@ -68,6 +71,7 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
         if reading.status != "fingers":
             continue
         out.palm_normals[side] = reading.palm_normal
+        out.pieces[side] = surface.piece
         for finger, chain in digit_joints(surface, reading, wrist).items():
             parent = f"{side}_wrist"
             for k, point in enumerate(chain):
@@ -102,7 +106,7 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
         if status != "fingers":
             continue
         wrist, elbow = joints[column[f"{side}_wrist"]], joints[column[f"{side}_elbow"]]
-        piece = hand_piece(vertices, faces, wrist, elbow)
+        piece = fingers.pieces.get(side) or hand_piece(vertices, faces, wrist, elbow)
         if piece is None:       # not for the mesh the fingers were read off: keep the body's weights
             continue
         own = [k for k, n in enumerate(fingers.names) if n.startswith(f"{side}_")]
