@@ -26,19 +26,15 @@ def humanoid_map(biped_map: dict, parent_of: dict[str, str | None]) -> dict[str,
     spine, chest = biped_map.get("spine"), biped_map.get("chest")
     out["spine2"] = chest
     out["spine1"] = None
-    if spine is not None and chest is not None:
-        between, node = [], parent_of.get(chest)
-        while node is not None and node != spine:
-            between.append(node)
-            node = parent_of.get(node)
-        if node == spine and between:
-            between.reverse()                       # from the spine up
-            out["spine1"] = between[(len(between) - 1) // 2]
+    above_chest = list(_ancestors(chest, parent_of)) if chest is not None else []
+    if spine in above_chest and above_chest.index(spine) > 0:
+        between = above_chest[:above_chest.index(spine)][::-1]     # from the spine up
+        out["spine1"] = between[(len(between) - 1) // 2]
     for side in ("left", "right"):
         arm = biped_map.get(f"{side}_shoulder")
         parent = parent_of.get(arm) if arm is not None else None
-        out[f"{side}_clavicle"] = parent if parent is not None and parent != chest and _below(
-            parent, chest, parent_of) else None
+        out[f"{side}_clavicle"] = parent if parent is not None and parent != chest and chest in _ancestors(
+            parent, parent_of) else None
     return out
 
 
@@ -51,12 +47,10 @@ def with_humanoid_map(meta: dict, joints: list[dict]) -> dict:
     return {**meta, KEY: humanoid_map(meta["biped_map"], parent_of)}
 
 
-def _below(joint: str, ancestor: str | None, parent_of: dict) -> bool:
-    """Whether ``ancestor`` is above ``joint`` in the hierarchy."""
+def _ancestors(joint: str, parent_of: dict):
+    """The joints above ``joint`` in the hierarchy, its parent first (a cycle ends the walk)."""
     node, seen = parent_of.get(joint), set()
     while node is not None and node not in seen:
-        if node == ancestor:
-            return True
+        yield node
         seen.add(node)
         node = parent_of.get(node)
-    return False
