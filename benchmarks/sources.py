@@ -68,23 +68,18 @@ def examples(shared: Path, corpus: Path) -> list[tuple[Path, str, str]]:
     return out
 
 
-def family_of(source: str) -> str:
-    """The sources held out together: those that share bodies (``makehuman`` and ``makehuman-ue`` are the same
-    MakeHuman bodies under two rigs), named by the part before a hyphen."""
-    return source.split("-")[0]
-
-
 def plan(items, folds: int, learned: set[str] | None = None, by_group: str = "0ad"
          ) -> list[tuple[str, list[Path], list[Path]]]:
     """[(held-out family of sources, training folders, test folders)]: ``by_group`` (0 A.D.) by group folds,
     as cross_validation.py holds it out, every other whole; only the ``learned`` sources (all for None) are
-    ever trained on."""
+    ever trained on. A held-out family (``learn.conventions.source_family``) is its sources that share bodies."""
+    from autorig.learn.conventions import source_family
     by_source = defaultdict(list)
     for folder, source, group in items:
-        by_source[family_of(source)].append((folder, group))
+        by_source[source_family(source)].append((folder, group))
     out = []
     for source, members in sorted(by_source.items()):
-        others = [f for f, s, _ in items if family_of(s) != source and (learned is None or s in learned)]
+        others = [f for f, s, _ in items if source_family(s) != source and (learned is None or s in learned)]
         if source != by_group:
             out.append((source, others, [f for f, _ in members]))
             continue

@@ -94,6 +94,26 @@ def test_a_convention_is_its_sources_median_shrunk_toward_the_others(biped):
     assert named_sources(["a", "b", "c"], {"x": ["a", "b", "zz"]}) == {"c": ["c"], "x": ["a", "b"]}
 
 
+def test_a_pooled_convention_counts_each_family_of_sources_once(biped):
+    """One tool's bodies under two rigs (``makehuman``, ``makehuman-ue``) are one family: with a third studio
+    they make a pooled convention half that studio's habit, not a third."""
+    J = len(biped.names)
+    hip, right = biped.names.index("left_hip"), biped.names.index("right_hip")
+    depths = _depths(biped)
+    known = np.array([not biped.is_tip(j) for j in range(J)])
+    placed, truths, sources = [], [], []
+    for source, shift in (("gltf", 0.3), ("mh", -0.3), ("mh-ue", -0.1)):
+        offsets = np.zeros((J, 3))
+        offsets[hip, 0] = offsets[right, 0] = shift
+        placed += [biped.positions] * 8
+        truths += [moved(biped.positions, offsets, biped, depths)] * 8
+        sources += [source] * 8
+    conventions = fit_conventions(placed, placed, truths, [known] * 24, [depths] * 24, sources, biped,
+                                  {"engine": ["gltf", "mh", "mh-ue"]}, shrink=0.0)
+    assert conventions["engine"]["offsets"][hip][0] == pytest.approx((0.3 + (-0.3 - 0.1) / 2) / 2)
+    assert sorted(conventions) == ["engine"] and conventions["engine"]["examples"] == 24
+
+
 def test_template_file_keeps_its_conventions_and_checks_them(biped):
     J = len(biped.names)
     offsets = np.zeros((J, 3))

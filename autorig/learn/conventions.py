@@ -13,9 +13,11 @@ whose thigh joints sit above the pelvis is not pulled half way to another's femo
 [J, 3] are what is still left between those placed rigs and the artists' joints, in the joints' own frames.
 
 Named conventions (``autorig learn --convention NAME=SOURCE,...``) are what a template ships: a name for one
-source's (``mixamo=makehuman``), or the mean of several sources' that follow one habit, each source counting
-once however many examples it has (``engine=rigged,makehuman``: the engines' humanoid, hip joints at the femoral
-heads). A source no name covers ships under its own name. A convention named for several sources is for
+source's (``mixamo=makehuman``), or the mean of several sources' that follow one habit, each family of sources
+counting once however many examples and rigs it has (``engine=rigged,makehuman,makehuman-ue``: the engines'
+humanoid, hip joints at the femoral heads, is half the glTF samples' habit and half MakeHuman's, its Mixamo and
+its Unreal-style rig a quarter each: one tool's bodies under two rigs agree on all but the spine, and counted as
+two they outvoted the other studio two to one). A source no name covers ships under its own name. A convention named for several sources is for
 characters from none of them: it has no shift (their shifts are their own bodies' proportions as much as their
 artists' habit: the glTF samples' stylised short legs, MakeHuman's long ones), and its offsets are measured on
 rigs placed by the shared anatomy alone.
@@ -43,6 +45,13 @@ def source_of(example, path: Path | None = None) -> str:
     if example.meta and "_" in example.name:
         return example.name.split("_", 1)[0]
     return Path(path).resolve().parent.name if path is not None else example.name
+
+
+def source_family(source: str) -> str:
+    """The family ``source`` belongs to: the part of its name before a hyphen (``makehuman-ue`` is MakeHuman's
+    bodies under an Unreal-style rig, of the ``makehuman`` family). A family's sources share their bodies, so
+    they are held out together (``benchmarks/sources.py``) and count once in a pooled convention."""
+    return source.split("-")[0]
 
 
 def named_sources(sources: list[str], names: dict[str, list[str]] | None) -> dict[str, list[str]]:
@@ -107,7 +116,7 @@ def fit_conventions(placed: list[np.ndarray], plain: list[np.ndarray], truths: l
     for name, members in named_sources(sources, names).items():
         pooled = len((names or {}).get(name, [name])) > 1
         offsets = generic if pooled and generic is not None else own
-        mean = _symmetric(np.mean([offsets[present.index(s)] for s in members], axis=0), template)
+        mean = _symmetric(_family_mean({s: offsets[present.index(s)] for s in members}), template)
         mean[tips] = 0.0
         out[name] = {"offsets": mean.tolist(), "sources": members,
                      "examples": int(sum(s in members for s in sources))}
@@ -137,6 +146,15 @@ def default_convention(conventions: dict, asked: str | None) -> str:
     if asked is not None:
         return asked
     return Counter({name: c["examples"] for name, c in conventions.items()}).most_common(1)[0][0]
+
+
+def _family_mean(offsets: dict[str, np.ndarray]) -> np.ndarray:
+    """[J, 3] the mean of the sources' ``offsets`` {source: [J, 3]}: each family's (``source_family``) mean
+    first, then the mean of the families'."""
+    families: dict[str, list[np.ndarray]] = {}
+    for source, value in offsets.items():
+        families.setdefault(source_family(source), []).append(value)
+    return np.mean([np.mean(values, axis=0) for values in families.values()], axis=0)
 
 
 def _symmetric(offsets: np.ndarray, template) -> np.ndarray:
