@@ -106,8 +106,9 @@ def start_heat_surface(prepared) -> "HeatSurfaceAhead":
     Below that the work is mostly too small to pay for the fork: the pages a forked process shares with its
     parent are copied when the parent writes to them (every Python object whose reference count changes), some
     0.05 s of a 20k-face rig, as much as the heat surface's 0.04 s (60k faces: 0.15 s; 1M: ~2 s). A surface
-    with slivers is the exception: its intrinsic Delaunay Laplacian (``surface_laplacian``) takes ~0.1 s at 10k
-    vertices, so it is begun ahead too."""
+    with slivers is the exception: with its intrinsic Delaunay Laplacian (``surface_laplacian``) it takes 0.06 s
+    of CPU at 10k vertices, and made ahead the rig's own CPU falls 0.99 -> 0.93 s (20k-face benchmark
+    mannequin); under ~3k vertices the fork and the work are both a few ms, a wash either way."""
     return HeatSurfaceAhead(prepared)
 
 
