@@ -103,10 +103,23 @@ def start_heat_surface(prepared) -> "HeatSurfaceAhead":
     second core (``autorig.ahead``) when the mesh is dense enough to be simplified for the heat; its
     ``result_for`` gives it to ``bone_heat``'s ``surface``.
 
-    Below that the work is too small to pay for the fork: the pages a forked process shares with its parent
-    are copied when the parent writes to them (every Python object whose reference count changes), some
-    0.05 s of a 20k-face rig, as much as the heat surface's 0.04 s (60k faces: 0.15 s; 1M: ~2 s)."""
+    Below that the work is mostly too small to pay for the fork: the pages a forked process shares with its
+    parent are copied when the parent writes to them (every Python object whose reference count changes), some
+    0.05 s of a 20k-face rig, as much as the heat surface's 0.04 s (60k faces: 0.15 s; 1M: ~2 s). A surface
+    with slivers is the exception: with its intrinsic Delaunay Laplacian (``surface_laplacian``) it takes 0.06 s
+    of CPU at 10k vertices, and made ahead the rig's own CPU falls 0.99 -> 0.93 s (20k-face benchmark
+    mannequin); under ~3k vertices the fork and the work are both a few ms, a wash either way."""
     return HeatSurfaceAhead(prepared)
+
+
+def _worth_ahead(prepared) -> bool:
+    """Whether a prepared mesh's heat surface costs enough to be made in a child: dense enough to be simplified,
+    or with slivers (checked on the input's faces, ~3 ms at 20k faces; the welded surface the heat uses
+    differs only by faces that collapse, so at worst a fork is spent or saved in vain: the value is the same)."""
+    if len(prepared.work_vertices) > HEAT_MAX_VERTICES:
+        return True
+    V = np.asarray(prepared.vertices, dtype=np.float64)
+    return not np.all(np.abs(face_cotangents(V, np.asarray(prepared.faces, dtype=np.int64))) <= COT_LIMIT)
 
 
 class HeatSurfaceAhead:
@@ -116,7 +129,7 @@ class HeatSurfaceAhead:
         from .ahead import Ahead
         self._prepared = prepared
         self._ahead = Ahead(heat_surface, (prepared.vertices, prepared.faces),
-                            wanted=len(prepared.work_vertices) > HEAT_MAX_VERTICES)
+                            wanted=_worth_ahead(prepared))
 
     def result_for(self, prepared):
         """``heat_surface(prepared.vertices, prepared.faces)`` if it was begun for this very mesh, or the same for

