@@ -10,12 +10,17 @@ one unit tall, facing +z):
                fore-aft and side widths (the thickness profile)
     free       the highest level up to which the leg's ring stands apart (neither across the mid-plane, nor
                reaching the other leg on the same side, nor buried in another part's section)
-    top        the highest surface point above the leg's top ring (the back over the shoulder or the rump)
+    top        the height of the back above the leg's top ring: the median, over ``TOP_RAYS`` vertical lines
+               through the ring (its centre and a quarter width either way), of the highest surface crossing
+               (a tail curled over the rump or a head raised over the shoulders crosses few of them; the
+               highest vertex over the ring's box put a sheep's back 0.44 over its front legs and 1.00 over a
+               tiger's rump)
 
 and each of the leg's joints (root, elbow/knee, wrist/hock, paw) is placed by constants learned from rigged
 animals (``autorig.learn.legs``), the same for every species:
 
-    height     y_j = a_j * free + b_j * (top - free)      (least squares over the examples)
+    height     y_j = a_j * free + b_j * bend + c_j * (top - free)   (least squares over the examples; the
+               shoulder and hip: free + c_j * (top - free), c_j the examples' median)
     across     (x, z)_j = centre(y_j) + offset_j * widths(y_j)   (medians over the examples; above ``free``
                the top ring's centre and widths, so the shoulder and hip sit over the leg's own column)
 
@@ -38,6 +43,8 @@ BEND_FROM = 0.15
 # the body's line, so the confidence of a template with legs is calibrated on the other joints.
 CONVENTION_JOINTS = ("hips", "spine", "chest", "neck")
 FEATURES = 3
+# Where ``top`` looks: vertical lines through the top ring's centre offset by these fractions of its widths.
+TOP_RAYS = np.array([(dx, dz) for dx in (-0.25, 0.0, 0.25) for dz in (-0.25, 0.0, 0.25)])
 
 
 @dataclass
@@ -176,11 +183,33 @@ def measure_legs(vertices: np.ndarray, faces: np.ndarray, joints: np.ndarray, te
                     and not any(box[2] <= o[1] <= box[3] for o in others))
             rows.append((level, (box[0] + box[1]) / 2, (box[2] + box[3]) / 2, box[1] - box[0], box[3] - box[2],
                          free))
-        out.append(_leg(chain, side, rows, vertices))
+        out.append(_leg(chain, side, rows, vertices, faces))
     return out
 
 
-def _leg(chain, side, rows, vertices) -> Leg | None:
+def highest_crossings(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """[P] the height of the highest point where the vertical line through each (x, z) of ``points`` [P, 2]
+    meets the surface (``vertices`` [V, 3], ``faces`` [F, 3]); -inf where it misses."""
+    corners = vertices[faces][:, :, [0, 2]]                          # [F, 3, 2]
+    low, high = points.min(axis=0), points.max(axis=0)
+    # Only the triangles whose box seen from above meets the points' box can be crossed (a leg's few).
+    faces = faces[np.all(corners.min(axis=1) <= high, axis=1) & np.all(corners.max(axis=1) >= low, axis=1)]
+    if not len(faces):
+        return np.full(len(points), -np.inf)
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    e1, e2 = (b - a)[:, [0, 2]], (c - a)[:, [0, 2]]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]                 # [F]
+    flat = np.abs(det) < 1e-12                                       # seen edge-on from above
+    det = np.where(flat, 1.0, det)
+    q = points[:, None, :] - a[None, :, [0, 2]]                       # [P, F, 2]
+    u = (q[..., 0] * e2[:, 1] - q[..., 1] * e2[:, 0]) / det
+    v = (e1[:, 0] * q[..., 1] - e1[:, 1] * q[..., 0]) / det
+    hit = ~flat & (u >= 0) & (v >= 0) & (u + v <= 1)
+    y = a[:, 1] + u * (b[:, 1] - a[:, 1]) + v * (c[:, 1] - a[:, 1])
+    return np.where(hit, y, -np.inf).max(axis=1)
+
+
+def _leg(chain, side, rows, vertices, faces) -> Leg | None:
     """The ``Leg`` of the rings ``rows`` from the ground up (None when the lowest ring is not free)."""
     if not rows or not rows[0][5] or rows[0][0] > 0.1:
         return None
@@ -190,8 +219,9 @@ def _leg(chain, side, rows, vertices) -> Leg | None:
     table = np.array([r[:5] for r in rows], float)
     free = float(table[run, 0])
     centre, width = table[run, 1:3], table[run, 3:5]
-    near = (np.abs(vertices[:, 2] - centre[1]) <= width[1] / 2) & (np.abs(vertices[:, 0] - centre[0]) <= width[0])
-    top = float(vertices[near, 1].max()) if near.any() else free
+    crossings = highest_crossings(vertices, faces, centre + TOP_RAYS * width)
+    crossings = crossings[np.isfinite(crossings)]
+    top = float(np.median(crossings)) if len(crossings) else free
     return Leg(chain=chain, side=side, levels=table[:run + 1, 0], centres=table[:run + 1, 1:3],
                widths=np.maximum(table[:run + 1, 3:5], 1e-6), free=free, top=max(top, free))
 

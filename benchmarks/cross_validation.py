@@ -157,7 +157,8 @@ def summary(kind: str, rows: list[dict]) -> str:
                      f"worst joint {maxes.max():5.1f} %  (median {np.median(maxes):4.1f})  top-1 "
                      f"{np.mean([r['top1'] for r in ok]):5.1f} %  failed {len(rows) - len(ok)}  | confidence: "
                      f"{confidence_against_error(maxes, conf)}")
-    lines += [free_summary(label, [r[label]["free"] for r in rows if "free" in r.get(label, {})])
+    lines += [free_summary(label, [r[label]["free"] for r in rows if "free" in r.get(label, {})],
+                           [r[label]["confidence"] for r in rows if "free" in r.get(label, {})])
               for label in ("before", "after") if any("free" in r.get(label, {}) for r in rows)]
     n = len(rows)
     lines.append(f"  detected axes give the same rig: {sum(r['same_axes'] for r in rows)}/{n}; axes found for the mesh "
@@ -166,9 +167,10 @@ def summary(kind: str, rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def free_summary(label: str, scores: list[dict]) -> str:
+def free_summary(label: str, scores: list[dict], confidence: list[float]) -> str:
     """The rigs' ``quadruped_score.convention_free`` scores against issue 26's targets: limbs mean <= 5 %, every
-    rig's worst limb joint <= 12 %, the artist's trunk joints within 6 % of the rig's trunk line."""
+    rig's worst limb joint <= 12 %, the artist's trunk joints within 6 % of the rig's trunk line; and their
+    ``confidence`` judged on the limbs (worst limb joint > 20 % below 0.5, <= 10 % at 0.5 or above)."""
     means = np.array([s["limbs_mean"] for s in scores])
     worsts = np.array([s["limbs_worst"] for s in scores])
     trunks = np.array([s["trunk_worst"] for s in scores])
@@ -176,7 +178,7 @@ def free_summary(label: str, scores: list[dict]) -> str:
             f"mean {means.max():5.1f})  worst limb joint {worsts.max():5.1f} %  (median {np.median(worsts):4.1f}; "
             f"{int(np.sum(worsts <= 12))}/{len(scores)} within 12 %)  trunk off the rig's line: worst "
             f"{trunks.max():5.1f} %  (median {np.median(trunks):4.1f}; {int(np.sum(trunks <= 6))}/{len(scores)} "
-            f"within 6 %)")
+            f"within 6 %)  | confidence on the limbs: {confidence_against_error(worsts, np.array(confidence))}")
 
 
 def confidence_against_error(maxes: np.ndarray, confidence: np.ndarray) -> str:

@@ -115,3 +115,49 @@ def test_a_foot_on_the_trunk_is_no_leg(template):
     odd = template_from_dict(data)
     chains = [[odd.names[j] for j in chain] for chain in legs_of(odd)]
     assert len(chains) == 3 and all(chain[-1] != "back_left_paw_end" for chain in chains)
+
+
+def test_the_back_over_a_leg_is_not_a_tail_raised_over_it():
+    """``highest_crossings``: a vertical line meets a unit cube's top at 1 and misses beside it; the back over a
+    leg (``top``) stays the back's height when a thin pole (a tail held up) rises over one corner of the ring."""
+    from autorig.legs import highest_crossings
+    import trimesh
+    cube = trimesh.creation.box(extents=(1, 1, 1))
+    cube.apply_translation((0, 0.5, 0))
+    tops = highest_crossings(np.asarray(cube.vertices), np.asarray(cube.faces),
+                             np.array([[0.0, 0.0], [0.3, -0.2], [2.0, 0.0]]))
+    assert tops[:2] == pytest.approx([1.0, 1.0])
+    assert tops[2] == -np.inf
+    sample = quadruped("dog")
+    prepared, truth = _canonical(sample)
+    template = load_template("quadruped")
+    guess = np.array([truth[n] for n in template.names])
+    V, F = prepared.work_vertices, prepared.work_faces
+    plain = measure_legs(V, F, guess, template)[2]
+    centre, width = plain.centres[-1], plain.widths[-1]
+    pole = trimesh.creation.box(extents=(0.02, 0.6, 0.02))
+    pole.apply_translation((centre[0] + 0.25 * width[0], plain.top + 0.3, centre[1] + 0.25 * width[1]))
+    raised = measure_legs(np.vstack([V, pole.vertices]), np.vstack([F, np.asarray(pole.faces) + len(V)]), guess,
+                          template)[2]
+    assert plain.free < plain.top < truth[template.names[plain.chain[0]]][1] + 0.2
+    assert raised.top == pytest.approx(plain.top, abs=0.01)
+
+
+def test_a_head_chain_short_of_the_snout_counts_against_the_rig(template):
+    """``ends_short``: the sample dog rigged with its own joints reaches its snout and its tail's end (within a
+    few % of its length); its head chain ending at the neck (as one that went into a horn or a tusk does) falls
+    short by the head's length; the biped, whose front is its toes or its belly, is never judged by it."""
+    from autorig.confidence import ends_short
+    sample = quadruped("dog")
+    prepared, truth = _canonical(sample)
+    V = prepared.work_vertices
+    joints = np.array([truth[n] for n in template.names])
+    assert ends_short(V, joints, template) < 0.06
+    short = joints.copy()
+    head, head_end, neck = (template.names.index(n) for n in ("head", "head_end", "neck"))
+    short[[head, head_end]] = joints[neck]
+    length = float(np.ptp(V[:, 2]))
+    assert ends_short(V, short, template) > ends_short(V, joints, template) + 0.5 * (
+        joints[head_end, 2] - joints[neck, 2]) / length
+    biped = load_template("biped")
+    assert ends_short(V, np.zeros((len(biped.names), 3)), biped) == 0.0

@@ -25,7 +25,7 @@ L2 = 0.05
 # The way each feature may move the confidence: costs and deviations only lower it, the parts in (0, 1] (1: no
 # sign of trouble) only raise it.
 SIGNS = {"cost_per_bone": -1, "proportions": -1, "limbs": 1, "extra": 1, "inside": 1, "symmetry": 1, "search": 1,
-         "facing": 1, "feet_behind": -1}
+         "facing": 1, "feet_behind": -1, "ends_short": -1}
 
 
 @dataclass
