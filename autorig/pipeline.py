@@ -114,6 +114,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         from .hands.stage import read_fingers, skin_with_fingers
         with stage("hands"):
             fingers = read_fingers(prepared.vertices, prepared.faces, template.names, joints)
+            joints = fingers.moved_joints(template.names, joints)   # an arm short of its hand ends at it
     with stage("skin weights"):
         surface = heat_surface.result_for(prepared)
         weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents, surface=surface)

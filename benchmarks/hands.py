@@ -18,6 +18,11 @@ joint, the share whose predicted top-1 joint is on the same finger (and, stricte
 digit and joint, the fraction of least mean error over all hands read with GT wrists; it prints them with the
 error they give, and the leave-one-body-out error (each body scored with fractions fitted on the other 23).
 
+``--short 0.2,0.4,0.6`` reads every hand with the GT wrist and elbow both moved that many forearms back towards
+the shoulder (an arm whose end stops short of the hand): how many hands read with fingers, with the thumb right, how
+many had their wrist moved out to the hand (``autorig.hands.region.short_wrist_shift``) and how far the limb
+reaches past the wrist given (``hand_extent``, in forearms: with 0, the corpus's ``HAND_EXTENT``).
+
 ``--shared`` rigs the shared biped-like meshes (no finger ground truth: it prints what each hand was read as).
 
 ``--speed MESH`` rigs MESH (e.g. a 30k-face character with fingers: ``tests/hand_samples.py`` makes one) five
@@ -25,6 +30,7 @@ times with and five without ``fingers=True`` and prints the medians of the hands
 the whole rig.
 
     PYTHONPATH=. python benchmarks/hands.py [--corpus DIR] [--fit] [--no-e2e] [--template T] [--shared] [--speed MESH]
+                                            [--short S,...]
 """
 from __future__ import annotations
 
@@ -40,7 +46,7 @@ from autorig.hands.names import FINGERS
 from autorig.hands.stage import read_fingers, skin_with_fingers
 from autorig.hands.digits import read_hand
 from autorig.hands.joints import FRACTIONS, along_digit
-from autorig.hands.region import hand_surface
+from autorig.hands.region import LIMB_REACH, hand_extent, hand_piece, hand_surface
 from autorig.mesh import load_mesh
 
 SIDES = {"left": "Left", "right": "Right"}
@@ -202,6 +208,34 @@ def fit(bodies):
     print(f"with the shipped FRACTIONS: {100 * np.take_along_axis(err, now[None, :, :, None], axis=3).mean():.1f} %")
 
 
+def short(bodies, shifts):
+    """Print, for each shift s (forearms), how many hands read with fingers and with the thumb right when the GT
+    wrist and elbow are both moved s forearms back along the forearm, and which did not read."""
+    for s in shifts:
+        read, thumbs, moved, extents, missed = 0, 0, 0, [], []
+        for folder, (V, F, gt, names, parents, W, _) in bodies:
+            b_names, b_parents, b_joints = gt_body(V, W, gt, names, parents)
+            for side in SIDES:
+                wrist, elbow = b_names.index(f"{side}_wrist"), b_names.index(f"{side}_elbow")
+                b_joints[[wrist, elbow]] -= s * (b_joints[wrist] - b_joints[elbow])
+            fingers = read_fingers(V, F, b_names, b_joints)
+            moved += len(fingers.moved)
+            for side in SIDES:
+                wrist, elbow = (b_joints[b_names.index(f"{side}_{j}")] for j in ("wrist", "elbow"))
+                extents.append(hand_extent(hand_piece(V, F, wrist, elbow, reach=LIMB_REACH), wrist, elbow))
+            weights = np.zeros((len(V), len(b_names) + len(fingers.names)))   # only the joints are scored here
+            r_names, _, r_joints, _ = fingers.appended(b_names, b_parents, b_joints, weights)
+            for side, row in score(V, W, gt, names, r_names, r_joints, weights, fingers.status).items():
+                read += row["status"] == "fingers"
+                thumbs += row["thumb"]
+                if row["status"] != "fingers":
+                    missed.append(f"{os.path.basename(folder)} {side} {row['status']}")
+        total = 2 * len(bodies)
+        print(f"wrist and elbow {s:.2f} forearms short: {read}/{total} read with fingers, thumb {thumbs}/{total}, "
+              f"wrist moved out on {moved}; the limb reaches {np.median(extents):.2f} forearms past the wrist "
+              f"(median; {min(extents):.2f}-{max(extents):.2f})" + (f"; not read: {', '.join(missed)}" if missed else ""))
+
+
 def speed(mesh, runs=5):
     """Print the medians of the hands stage, the skin weights and the whole rig of ``mesh``, with and without
     fingers, over ``runs`` alternating runs."""
@@ -243,6 +277,8 @@ def main():
     parser.add_argument("--no-e2e", action="store_true", help="only with the GT wrists and elbows")
     parser.add_argument("--speed", metavar="MESH", help="time the hands stage on MESH instead")
     parser.add_argument("--shared", action="store_true", help="what the shared meshes' hands are read as")
+    parser.add_argument("--short", help="comma-separated shifts (forearms) of the GT wrist and elbow towards the "
+                                        "shoulder: how many hands still read")
     parser.add_argument("--template", default="biped", help="end to end with this template (biped, humanoid)")
     parser.add_argument("--data", default=os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data"))
     args = parser.parse_args()
@@ -258,6 +294,9 @@ def main():
     bodies = [(f, load_body(f)) for f in folders]
     if args.fit:
         fit(bodies)
+        return
+    if args.short:
+        short(bodies, [float(x) for x in args.short.split(",")])
         return
     gt_rows, e2e_rows, stage = [], [], []
     for folder, body in bodies:

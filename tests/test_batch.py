@@ -147,6 +147,17 @@ def test_json_report(reference):
     bad = by_input["sub/bad.obj"]
     assert bad["status"] == "failed" and bad["error_type"] == "InputError"
     assert bad["error"].startswith("sub/bad.obj: ") and "\n" not in bad["error"]
+    assert_rest_poses(by_input)
+
+
+def assert_rest_poses(by_input: dict) -> None:
+    """The report's rest pose of each reference asset: the T-posed hero, the A-posed kid (arms 45 degrees
+    down), none for the dog (no arms) and for the broken file (no rig)."""
+    hero, kid = by_input["hero.obj"], by_input["sub/deeper/kid.obj"]
+    assert hero["rest_pose"] == "T" and abs(hero["arm_angle"]) < 20
+    assert kid["rest_pose"] == "A" and 30 <= kid["arm_angle"] <= 55
+    for rel in ("animals/dog.gltf", "sub/bad.obj"):
+        assert by_input[rel]["rest_pose"] is None and by_input[rel]["arm_angle"] is None
 
 
 def test_junit_report(reference):
@@ -159,6 +170,9 @@ def test_junit_report(reference):
     failure = cases["sub", "bad.obj"].find("failure")
     assert failure.get("type") == "InputError" and failure.get("message").startswith("sub/bad.obj: ")
     assert cases[".", "hero.obj"].find("failure") is None
+    assert ", rest pose T (" in cases[".", "hero.obj"].find("system-out").text
+    assert ", rest pose A (" in cases["sub/deeper", "kid.obj"].find("system-out").text
+    assert "rest pose" not in cases["animals", "dog.gltf"].find("system-out").text
 
 
 def test_second_run_skips_everything(reference, tmp_path):
@@ -171,6 +185,7 @@ def test_second_run_skips_everything(reference, tmp_path):
     assert statuses(report) == {"animals/dog.gltf": ("skipped", "ok"), "hero.obj": ("skipped", "ok"),
                                 "sub/bad.obj": ("skipped", "failed"), "sub/deeper/kid.obj": ("skipped", "ok")}
     assert all(not a["timings"] for a in json.loads(report.read_text())["assets"])
+    assert_rest_poses({a["input"]: a for a in json.loads(report.read_text())["assets"]})  # kept from the first run
     assert outputs(out) == before
     assert "4 assets unchanged since the last run" in result.stderr
     suite = ET.parse(tmp_path / "again.xml").getroot().find("testsuite")

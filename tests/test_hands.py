@@ -68,6 +68,34 @@ def test_five_fingers_and_the_thumb_are_read_where_they_were_built(hand_mesh):
     assert parents["left_index1"] == "left_wrist" and parents["left_index_end"] == "left_index3"
 
 
+def test_an_arm_that_ends_short_of_its_hand_is_moved_out_to_it(hand_mesh):
+    """Wrist, elbow and hand_end given 0.7 forearms back towards the shoulder (as when the body stages stop an
+    arm short): the limb reaches on well past that wrist, so the hand is read from a wrist moved out to it, the
+    rig's wrist and hand_end move there, and the fingers, thumb included, are where they were built (from the
+    short wrist itself the thumb's base joints lay on the forearm, half a hand off)."""
+    V, F, joints = hand_mesh
+    names, built = _arms(joints)
+    short = built.copy()
+    for k in (0, 3):                       # each side's elbow, wrist, hand_end
+        short[k:k + 3] -= 0.7 * (built[k + 1] - built[k])
+    fingers = read_fingers(V, F, names, short)
+    assert fingers.status == {"left": "fingers", "right": "fingers"} and set(fingers.moved) == {"left", "right"}
+    moved = fingers.moved_joints(names, short)
+    for side in ("left", "right"):
+        length = _hand_length(joints, side)
+        for joint in ("wrist", "hand_end"):
+            k = names.index(f"{side}_{joint}")
+            assert np.linalg.norm(moved[k] - built[k]) < 0.05 * length
+        assert np.array_equal(moved[names.index(f"{side}_elbow")], short[names.index(f"{side}_elbow")])
+        errors = np.array([np.linalg.norm(p - joints[n]) for n, p in zip(fingers.names, fingers.positions)
+                           if n.startswith(side)]) / length
+        assert errors.mean() < 0.10 and errors.max() < 0.2, errors
+        tip = fingers.positions[fingers.names.index(f"{side}_thumb_end")]
+        assert min(FINGERS, key=lambda g: np.linalg.norm(tip - joints[f"{side}_{g}_end"])) == "thumb"
+    # Given where they were built, nothing moves.
+    assert read_fingers(V, F, names, built).moved == {}
+
+
 def test_fingers_are_read_with_the_arms_hanging_down():
     """Hands by the thighs (palms facing them): the same five digits, the thumb at the front."""
     V, F, joints = fingered_mannequin("down")

@@ -17,8 +17,12 @@ def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
          "assets": [{"input": "dogs/rex.obj", "output": "dogs/rex.rigged.glb", "status": "ok",
                      "previous": null, "template": "quadruped", "up": "y", "front": "z", "error": null,
                      "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...},
-                     "confidence_parts": {"fit": 0.9, ...}, "previous_timings": {}, "thumbnails": {}},
+                     "confidence_parts": {"fit": 0.9, ...}, "previous_timings": {}, "thumbnails": {},
+                     "rest_pose": "A", "arm_angle": 41.5},
                     ...]}
+
+    ``rest_pose`` and ``arm_angle`` are the rig's (``autorig.rest_pose``: "T", "A" or "arms down", and the
+    arms' degrees below the horizontal), null for a rig without arms (a quadruped) and for an asset without a rig.
     """
     from ..exchange import write_file_atomic
     document = {"autorig": __version__, "input": str(result.input_dir.resolve()),
@@ -65,6 +69,7 @@ def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
         else:
             out = ET.SubElement(case, "system-out")
             out.text = f"{asset.template} -> {asset.output}" + (
-                f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "")
+                f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "") + (
+                f", rest pose {asset.rest_pose} ({asset.arm_angle:.0f} deg)" if asset.rest_pose else "")
     ET.indent(suites)
     write_file_atomic(path, ET.tostring(suites, encoding="utf-8", xml_declaration=True) + b"\n")

@@ -30,6 +30,9 @@ class AssetResult:
                 outside its folder, missing, not an image; see ``autorig.confine``), also for skipped assets
     hands       ``rig.info["hands"]``: which hands got fingers ({"left": "fingers", "right": "mitten"}) when
                 fingers were asked for (``autorig.hands``), also for skipped assets; else {}
+    rest_pose   ``rig.info["rest_pose"]``: the arms' pose the bind pose is in ("T", "A" or "arms down",
+                ``autorig.rest_pose``), also for skipped assets; None for a rig without arms or no rig
+    arm_angle   ``rig.info["arm_angle"]``: the arms' degrees below the horizontal that pose was read from, or None
     thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
                 flat shape) relative to the output folder, when
                 a run with ``html`` drew them (kept for skipped assets), else {}
@@ -51,6 +54,8 @@ class AssetResult:
     thumbnails: dict[str, str] = field(default_factory=dict)
     dropped: list[dict] = field(default_factory=list)
     hands: dict[str, str] = field(default_factory=dict)
+    rest_pose: str | None = None
+    arm_angle: float | None = None
 
     @property
     def failed(self) -> bool:

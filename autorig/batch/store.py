@@ -53,7 +53,8 @@ def kept_result(plan: Plan, entry: dict | None, output_dir: Path) -> AssetResult
                        error_type=entry.get("error_type"), confidence=entry.get("confidence"),
                        confidence_parts=entry.get("confidence_parts") or {},
                        previous_timings=entry.get("timings") or {}, thumbnails=thumbnails,
-                       dropped=entry.get("dropped") or [], hands=entry.get("hands") or {})
+                       dropped=entry.get("dropped") or [], hands=entry.get("hands") or {},
+                       rest_pose=entry.get("rest_pose"), arm_angle=entry.get("arm_angle"))
 
 
 def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict,
@@ -65,7 +66,8 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                          error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
                          confidence_parts=outcome.get("confidence_parts", {}),
                          seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}),
-                         dropped=outcome.get("dropped", []), hands=outcome.get("hands", {}))
+                         dropped=outcome.get("dropped", []), hands=outcome.get("hands", {}),
+                         rest_pose=outcome.get("rest_pose"), arm_angle=outcome.get("arm_angle"))
     out = output_dir / plan.output
     _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
@@ -76,6 +78,7 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
         except AutorigError as e:
             result.status, result.error, result.error_type = "failed", str(e), type(e).__name__
             result.confidence, result.confidence_parts = None, {}
+            result.rest_pose = result.arm_angle = None
             outcome = {"remember": False}
     elif plan.rel in manifest and manifest[plan.rel].get("status") == "ok":
         _remove_output(out, fmt)
@@ -87,7 +90,9 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                               "timings": {stage: round(s, 4) for stage, s in result.timings.items()},
                               "thumbnails": result.thumbnails,
                               **({"dropped": result.dropped} if result.dropped else {}),
-                              **({"hands": result.hands} if result.hands else {})}
+                              **({"hands": result.hands} if result.hands else {}),
+                              **({"rest_pose": result.rest_pose, "arm_angle": result.arm_angle}
+                                 if result.rest_pose else {})}
     else:
         manifest.pop(plan.rel, None)
     return result

@@ -81,6 +81,7 @@ def rig_one(job: Job) -> dict:
                     "confidence_parts": dict(result.info.get("confidence_parts") or {}),
                     "dropped": list(result.info.get("dropped", [])),
                     "hands": dict(result.info.get("hands") or {}),
+                    "rest_pose": result.info.get("rest_pose"), "arm_angle": result.info.get("arm_angle"),
                     "seconds": time.perf_counter() - start}
         except AutorigError as e:
             error, error_type, remember = str(e), type(e).__name__, True

@@ -19,6 +19,12 @@ CUT_BEFORE_WRIST = 0.25   # the cut plane lies this far (x forearm length) befor
 REACH = 1.5               # the hand lies within this many forearm lengths of the wrist (hands are 0.6-0.8)
 HAND_MAX_VERTICES = 8000  # denser hands are simplified to this many vertices before they are read
 MIN_VERTICES = 60         # fewer vertices than this beyond the wrist: too coarse to see fingers
+HAND_EXTENT = 0.76        # how far the hand reaches past its wrist, x the forearm: the median over the corpus's 48
+                          # hands with the artists' wrists (0.70-0.86; benchmarks/hands.py --short 0 prints it)
+SHORT_OF_HAND = 0.4       # a limb reaching more than this many forearms farther than that has a wrist short of its
+                          # hand: the hands are read right with the artists' wrists moved back up to 0.4 forearms,
+                          # not all of them beyond (benchmarks/hands.py --short)
+LIMB_REACH = 3.0          # how far past the wrist (x the forearm) a limb that goes on past REACH is followed
 # These are set by hand, not tuned: on the corpus (benchmarks/hands.py --fit, leave-one-body-out) the finger
 # joints' error is 4.8 / 4.7 / 4.8 % of the hand's length with the cut 0.15 / 0.25 / 0.35 forearms before the
 # wrist, and 4.7 % with a reach of 1.2, 1.5 or 2 forearms.
@@ -63,9 +69,10 @@ class HandPiece:
     ring_reach: float
 
 
-def hand_piece(vertices, faces, wrist, elbow) -> HandPiece | None:
-    """The piece of the surface beyond a cut just before the wrist, within reach of it and joined to it; None
-    if it has too few vertices to see fingers. vertices [V, 3], faces [F, 3]: the whole mesh; wrist, elbow [3]."""
+def hand_piece(vertices, faces, wrist, elbow, reach: float = REACH) -> HandPiece | None:
+    """The piece of the surface beyond a cut just before the wrist, within ``reach`` forearms of it and joined to
+    it; None if it has too few vertices to see fingers. vertices [V, 3], faces [F, 3]: the whole mesh; wrist,
+    elbow [3]."""
     from ..attach import weld_surface
 
     wrist, elbow = np.asarray(wrist, float), np.asarray(elbow, float)
@@ -75,7 +82,7 @@ def hand_piece(vertices, faces, wrist, elbow) -> HandPiece | None:
     axis = (wrist - elbow) / forearm
     weld, V, F = weld_surface(np.asarray(vertices, float), np.asarray(faces, np.int64))
     along = (V - wrist) @ axis
-    keep = (along >= -CUT_BEFORE_WRIST * forearm) & (np.linalg.norm(V - wrist, axis=1) <= REACH * forearm)
+    keep = (along >= -CUT_BEFORE_WRIST * forearm) & (np.linalg.norm(V - wrist, axis=1) <= reach * forearm)
     inside = keep[F].all(axis=1)
     if inside.sum() < MIN_VERTICES:
         return None
@@ -121,6 +128,25 @@ def hand_surface(vertices, faces, wrist, elbow) -> HandSurface | None:
     geodesic = dijkstra(graph, directed=False, indices=seeds, min_only=True)
     geodesic[~np.isfinite(geodesic)] = 0.0
     return HandSurface(HV, HF, graph, geodesic, axis, forearm, piece)
+
+
+def hand_extent(piece: HandPiece, wrist, elbow) -> float:
+    """How far the surface of ``piece`` (``hand_piece``) reaches past the wrist along the forearm, x the
+    forearm's length (elbow -> wrist, [3] each)."""
+    return float(piece.along.max()) / float(np.linalg.norm(np.asarray(wrist, float) - np.asarray(elbow, float)))
+
+
+def short_wrist_shift(vertices, faces, wrist, elbow, piece: HandPiece) -> float:
+    """How far (mesh units, along the forearm) to move a wrist that stops short of its hand so that the limb
+    reaches HAND_EXTENT forearms (elbow -> wrist as given) past it; 0 for a wrist whose hand (``piece``, from
+    ``hand_piece``) reaches no more than HAND_EXTENT + SHORT_OF_HAND forearms past it. vertices [V, 3],
+    faces [F, 3]: the whole mesh; wrist, elbow [3]."""
+    if hand_extent(piece, wrist, elbow) <= HAND_EXTENT + SHORT_OF_HAND:
+        return 0.0
+    limb = hand_piece(vertices, faces, wrist, elbow, reach=LIMB_REACH)     # followed on past REACH
+    extent = hand_extent(limb if limb is not None else piece, wrist, elbow)
+    # In forearms as given: an arm that ends short has its elbow short too (the forearm's length keeps).
+    return float(np.linalg.norm(np.asarray(wrist, float) - np.asarray(elbow, float))) * max(extent - HAND_EXTENT, 0.0)
 
 
 def _cut_ring(V, F, along, ring_reach) -> np.ndarray:

@@ -9,7 +9,7 @@ import numpy as np
 from .digits import read_hand
 from .joints import digit_joints
 from .names import FINGERS, SIDES
-from .region import CUT_BEFORE_WRIST, hand_piece, hand_surface
+from .region import CUT_BEFORE_WRIST, hand_piece, hand_surface, short_wrist_shift
 
 
 
@@ -24,6 +24,8 @@ class Fingers:
     palm_normals  {side: [3] unit normal out of the palm} for the sides with fingers
     pieces     {side: the hand's full-resolution piece of surface (``region.hand_piece``)} for the sides with
                fingers, kept for their weights (``skin_with_fingers``) rather than cut out of the mesh again
+    moved      {side: [3] offset} by which the side's wrist and hand_end move: the sides whose arm stopped short
+               of the hand (``region.short_wrist_shift``) and whose hand read right from the wrist moved there
     """
     names: list[str] = field(default_factory=list)
     parents: list[str] = field(default_factory=list)
@@ -31,6 +33,15 @@ class Fingers:
     status: dict[str, str] = field(default_factory=dict)
     palm_normals: dict[str, np.ndarray] = field(default_factory=dict)
     pieces: dict = field(default_factory=dict)
+    moved: dict = field(default_factory=dict)
+
+    def moved_joints(self, names, joints) -> np.ndarray:
+        """joints [J, 3] of the rig's ``names`` [J] with each ``moved`` side's wrist and hand_end moved (a copy)."""
+        joints = np.array(joints, dtype=np.float64)
+        for side, offset in self.moved.items():
+            for joint in ("wrist", "hand_end"):
+                joints[list(names).index(f"{side}_{joint}")] += offset
+        return joints
 
     def appended(self, names, parents, joints, weights):
         """(names [J + K], parents [J + K], joints [J + K, 3], weights [V, J + K]) of a rig's J joints with
@@ -56,6 +67,10 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
 
     vertices [V, 3], faces [F, 3]: the mesh at full resolution; names [J]: the rig's joint names; joints
     [J, 3]: their positions, in the mesh's frame. Returns ``Fingers`` (empty for a rig without hands).
+
+    An arm whose end stops short of its hand (the limb reaches on well past the wrist) is read again from a
+    wrist moved out to the hand (``region.short_wrist_shift``); when the hand reads right from there, that
+    wrist is the one its fingers hang from, and ``Fingers.moved`` says how far the rig's wrist and hand_end go.
     """
     index = {n: i for i, n in enumerate(names)}
     out = Fingers()
@@ -67,6 +82,14 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
             out.status[side] = "too coarse"
             continue
         reading = read_hand(surface, side)
+        shift = short_wrist_shift(vertices, faces, wrist, elbow, surface.piece)
+        if shift > 0:
+            offset = shift * surface.axis
+            there = hand_surface(vertices, faces, wrist + offset, elbow)
+            again = read_hand(there, side) if there is not None else None
+            if again is not None and again.status == "fingers":     # else the limb went on past a hand
+                wrist, surface, reading = wrist + offset, there, again
+                out.moved[side] = offset
         out.status[side] = reading.status
         if reading.status != "fingers":
             continue
