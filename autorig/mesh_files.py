@@ -73,6 +73,8 @@ def _parse_obj_fast(lines: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     if counts.min() < 3 or index.min() < 1:
         return None
+    if counts.max() == 3:   # triangles only: the fan is the table itself (0.1-0.3 s of gathers saved at 1M faces)
+        return vertices, index.reshape(-1, 3) - 1
     return vertices, fan(index - 1, counts)
 
 
