@@ -436,10 +436,16 @@ def nearest_share(dist):
 
 
 def _clean(W):
-    """Clip negatives, drop weights below WEIGHT_FLOOR and renormalise the rows of W [N, B] to sum to 1."""
-    W = np.clip(np.nan_to_num(W, nan=0.0, posinf=0.0, neginf=0.0), 0.0, None)
+    """Clip negatives, drop weights below WEIGHT_FLOOR and renormalise the rows of W [N, B] to sum to 1.
+
+    Returns a new array (W is not modified), worked on in place: a 1M-face scan's [500k, 23] weights are
+    92 MB, and each temporary costs ~0.03 s. A row whose sum is 0 holds only zeros after the clip, so it
+    stays all zero without being divided."""
+    W = np.nan_to_num(W, nan=0.0, posinf=0.0, neginf=0.0)   # a copy
+    np.clip(W, 0.0, None, out=W)
     s = W.sum(axis=1, keepdims=True)
-    W = np.divide(W, s, out=np.zeros_like(W), where=s > 0)
+    np.divide(W, s, out=W, where=s > 0)
     W[W < WEIGHT_FLOOR] = 0.0
     s = W.sum(axis=1, keepdims=True)
-    return np.divide(W, s, out=np.zeros_like(W), where=s > 0)
+    np.divide(W, s, out=W, where=s > 0)
+    return W
