@@ -37,31 +37,29 @@ def parse_obj(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
     per material (each with its own copy of the vertices), and resolves negative (relative) indices against the
     end of the file instead of the current position."""
     text = text.replace("\r\n", "\n").replace("\r", "\n").replace("\\\n", " ").replace("\t", " ")
-    lines = text.split("\n")
     if "\n " in text or text.startswith(" "):
-        lines = [line.lstrip() for line in lines]
-    fast = _parse_obj_fast(lines)
-    return fast if fast is not None else _parse_obj_lines(lines, path)
+        text = "\n".join([line.lstrip() for line in text.split("\n")])
+    fast = _parse_obj_fast(text)
+    return fast if fast is not None else _parse_obj_lines(text.split("\n"), path)
 
 
-def _parse_obj_fast(lines: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
-    """Vectorised parse of the usual OBJ: numeric 'v' lines and 'f' lines with positive indices.
+def _parse_obj_fast(text: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vectorised parse of the usual OBJ (lines split at "\\n", none starting with a space): numeric 'v' lines
+    and 'f' lines with positive indices.
 
     Returns None when anything is unusual (no faces, relative indices, a malformed line); the line-by-line
     parser then handles the file and reports problems with their line numbers.
     """
-    v_lines = [line[2:] for line in lines if line[:2] == "v "]
-    f_lines = [line[2:] for line in lines if line[:2] == "f "]
-    if not v_lines or not f_lines:
+    (v_count, v_text), (f_count, faces_text) = _statements(text, ("v ", "f "))
+    if not v_count or not f_count:
         return None
-    faces_text = "\n".join(f_lines)
     if "#" in faces_text:
         return None
     if "/" in faces_text:
         faces_text = re.sub(r"/\S*", "", faces_text)  # keep the vertex index of each v/vt/vn corner
     face_lines = faces_text.split("\n")
     try:
-        vertices = np.loadtxt(v_lines, usecols=(0, 1, 2), ndmin=2, comments="#")
+        vertices = np.loadtxt(v_text.split("\n"), usecols=(0, 1, 2), ndmin=2, comments="#")
         try:  # every face with the same number of corners: one C-speed pass
             table = np.loadtxt(face_lines, dtype=np.int64, ndmin=2)
             index, counts = table.reshape(-1), np.full(len(table), table.shape[1])
@@ -73,7 +71,34 @@ def _parse_obj_fast(lines: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     if counts.min() < 3 or index.min() < 1:
         return None
+    if counts.max() == 3:   # triangles only: the fan is the table itself (0.1-0.3 s of gathers saved at 1M faces)
+        return vertices, index.reshape(-1, 3) - 1
     return vertices, fan(index - 1, counts)
+
+
+def _statements(text: str, keywords: tuple[str, ...]) -> list[tuple[int, str]]:
+    """For each two-character keyword ("v ", "f "): (how many lines of ``text`` start with it, the rest of those
+    lines joined by newlines), as [line[2:] for line in text.split("\\n") if line[:2] == keyword] would give.
+
+    The line starts are found by numpy in the text's bytes and the statements cut out run by run (a file lists
+    its vertices, and its faces, in a few long runs): a 1M-face OBJ in 0.45 s instead of 0.65 s of list
+    comprehensions over 1.5M lines. Each character is one byte in latin-1 (the text was decoded so), and one
+    "?" for any other character, so the offsets agree."""
+    data = np.frombuffer(text.encode("latin-1", errors="replace") + b"\n\0\0", dtype=np.uint8)
+    starts = np.r_[0, np.flatnonzero(data[:-2] == 10) + 1]        # [L + 1] each line's start, then a sentinel
+    lines = starts[:-1]
+    out = []
+    for keyword in keywords:
+        a, b = keyword.encode("latin-1")
+        found = np.flatnonzero((data[lines] == a) & (data[lines + 1] == b))   # [K] line numbers, ascending
+        if len(found) == 0:
+            out.append((0, ""))
+            continue
+        cut = np.flatnonzero(np.diff(found) != 1)
+        first, last = np.r_[found[0], found[cut + 1]], np.r_[found[cut], found[-1]]     # each run's lines
+        runs = "\n".join([text[s:e] for s, e in zip(starts[first].tolist(), (starts[last + 1] - 1).tolist())])
+        out.append((len(found), runs[2:].replace("\n" + keyword, "\n")))
+    return out
 
 
 def fan(index: np.ndarray, counts: np.ndarray) -> np.ndarray:
