@@ -34,9 +34,8 @@ def same_bodies(items, score) -> list[str]:
     the two rigs of one body (left and right joints together)."""
     from autorig.learn.conventions import source_family
     by_body = defaultdict(dict)
-    for folder, source, _ in items:
-        body = folder.name[len(source) + 1:] if folder.name.startswith(source + "_") else folder.name
-        by_body[(source_family(source), body)][source] = folder
+    for folder, source, group in items:     # a group is the characters sharing a body mesh (sources.examples)
+        by_body[(source_family(source), group)][source] = folder
     pairs = defaultdict(list)
     for (family, _), rigs in sorted(by_body.items()):
         if len(rigs) == 2:
@@ -59,9 +58,9 @@ def same_bodies(items, score) -> list[str]:
     return lines
 
 
-def every_convention(items, score, per_source: int, out: Path) -> list[str]:
-    """Report lines: characters of the engine convention's sources rigged in each of the built-in biped's
-    conventions."""
+def every_convention(items, score, per_source: int, out: Path):
+    """Report lines, one at a time as each character is rigged: characters of the engine convention's sources
+    rigged in each of the built-in biped's conventions."""
     import autorig
     from autorig.exchange import write_rig
     from autorig.template import load_template
@@ -69,8 +68,7 @@ def every_convention(items, score, per_source: int, out: Path) -> list[str]:
     names = sorted(template.conventions)
     engine = set(template.conventions[template.default_convention]["sources"])
     taken = defaultdict(int)
-    lines = [f"{'character':34s} " + "  ".join(f"{n:>11s}" for n in names)]
-    print(lines[0], flush=True)
+    yield f"{'character':34s} " + "  ".join(f"{n:>11s}" for n in names)
     for folder, source, _ in items:
         if source not in engine or taken[source] >= per_source:
             continue
@@ -85,9 +83,7 @@ def every_convention(items, score, per_source: int, out: Path) -> list[str]:
             write_rig(autorig.rig(folder / "mesh.obj", template, options), path, "glb")
             joints = score.score_glb(gt, str(path), kind="biped")["joints"]
             cells.append(f"{100 * joints['mean']:4.1f} / {100 * joints['max']:4.1f}")
-        lines.append(f"{folder.name[:34]:34s} " + "  ".join(f"{c:>11s}" for c in cells))
-        print(lines[-1], flush=True)
-    return lines
+        yield f"{folder.name[:34]:34s} " + "  ".join(f"{c:>11s}" for c in cells)
 
 
 def main(argv=None) -> int:
@@ -103,7 +99,8 @@ def main(argv=None) -> int:
     print("\n".join(same_bodies(items, score)), flush=True)
     print("\nmean / worst joint error (% of height) in each convention of the built-in biped (in-sample):")
     with tempfile.TemporaryDirectory() as tmp:
-        every_convention(items, score, args.per_source, Path(tmp))
+        for line in every_convention(items, score, args.per_source, Path(tmp)):
+            print(line, flush=True)
     return 0
 
 

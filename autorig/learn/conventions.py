@@ -17,8 +17,8 @@ source's (``mixamo=makehuman``), or the mean of several sources' that follow one
 counting once however many examples and rigs it has (``engine=rigged,makehuman,makehuman-ue``: the engines'
 humanoid, hip joints at the femoral heads, is half the glTF samples' habit and half MakeHuman's, its Mixamo and
 its Unreal-style rig a quarter each: one tool's bodies under two rigs agree on all but the spine, and counted as
-two they outvoted the other studio two to one). A source no name covers ships under its own name. A convention named for several sources is for
-characters from none of them: it has no shift (their shifts are their own bodies' proportions as much as their
+two they outvoted the other studio two to one). A source no name covers ships under its own name. A convention
+named for several sources is for characters from none of them: it has no shift (their shifts are their own bodies' proportions as much as their
 artists' habit: the glTF samples' stylised short legs, MakeHuman's long ones), and its offsets are measured on
 rigs placed by the shared anatomy alone.
 """

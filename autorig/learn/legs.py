@@ -68,14 +68,15 @@ def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]
             continue
         features = np.array([r[0] for r in rows])
         heights = np.array([r[1] for r in rows])
-        coef = np.linalg.lstsq(features, heights, rcond=None)[0]
-        if _role(template.names[key]) in HEIGHT_FROM_BACK:
+        role = _role(template.names[key])
+        rule = {"offset": [round(float(o), 4) for o in np.median(np.array([r[2] for r in rows]), axis=0)]}
+        if role in HEIGHT_FROM_LEGS:
+            coef = np.linalg.lstsq(features, heights, rcond=None)[0]
+        elif role in HEIGHT_FROM_BACK:
             share = (heights - features[:, 0]) / np.maximum(features[:, 2], 1e-3)
             coef = np.array([1.0, 0.0, float(np.median(share))])
-        offset = np.median(np.array([r[2] for r in rows]), axis=0)
-        rule = {**({"height": [round(float(c), 4) for c in coef]}
-                   if _role(template.names[key]) in HEIGHT_FROM_LEGS + HEIGHT_FROM_BACK else {}),
-                "offset": [round(float(o), 4) for o in offset]}
+        if role in HEIGHT_FROM_LEGS + HEIGHT_FROM_BACK:
+            rule = {"height": [round(float(c), 4) for c in coef], **rule}
         for j in {key, int(mirror[key])}:
             rules[template.names[j]] = rule
     return rules, {"legs_measured": measured, "legs_total": len(legs_of(template)) * len(examples),
