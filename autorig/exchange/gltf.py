@@ -38,7 +38,7 @@ from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, M
                        Skin)
 
 from ..errors import InputError
-from ..facing import cross_rows
+from ..facing import face_cross
 from ..limits import check_faces
 from ..result import Look, Rig
 from ..version import __version__
@@ -111,8 +111,7 @@ def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
-    corners = np.take(vertices, faces, axis=0)   # = vertices[faces], twice as fast at 1M faces
-    face_normals = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])   # np.cross's values
+    face_normals = face_cross(vertices, faces)   # np.cross's values
     normals = np.stack([np.bincount(faces.ravel(), weights=np.repeat(face_normals[:, c], 3),
                                     minlength=len(vertices)) for c in range(3)], axis=1)
     length = np.linalg.norm(normals, axis=1)
