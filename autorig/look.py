@@ -25,6 +25,7 @@ import numpy as np
 
 from .confine import Dropped
 from .errors import InputError
+from .mesh_files import obj_text
 from .result import Image, Look
 
 __all__ = ["load_look", "material_files"]
@@ -66,10 +67,10 @@ def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool) -> Look | None
     except OSError as e:
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     # A bare OBJ (most scans) is passed over at the speed of a byte search, with no decoding.
-    if not any(key in data for key in (b"vt ", b"vn ", b"usemtl", b"mtllib")) and not _has_vertex_colors(data):
+    if not any(_contains(data, key) for key in (b"vt ", b"vn ", b"usemtl", b"mtllib")) and not _has_vertex_colors(data):
         return None
     text = data.decode("latin-1")
-    text = text.replace("\r\n", "\n").replace("\r", "\n").replace("\\\n", " ").replace("\t", " ")
+    text = obj_text(text)
     lines = text.split("\n")
     if "\n " in text or text.startswith(" "):
         lines = [line.lstrip() for line in lines]
@@ -244,6 +245,18 @@ def _numbers(lines: list[str], widths: tuple[int, ...]) -> np.ndarray | None:
     if width not in widths or width * len(lines) != len(values):
         return None
     return values.reshape(len(lines), width)
+
+
+def _contains(data: bytes, word: bytes) -> bool:
+    """``word in data`` for a word of two or more bytes, looked for from each place its second byte occurs: that
+    is a one-byte scan (memchr) through a bare OBJ, whose numbers hold no letters, where the search for "vt "
+    itself stalls on every "v" (1M-face OBJ: the four words 0.145 -> 0.015 s)."""
+    i = data.find(word[1:2], 1)
+    while i >= 0:
+        if data.startswith(word, i - 1):
+            return True
+        i = data.find(word[1:2], i + 1)
+    return False
 
 
 def _has_vertex_colors(data: bytes) -> bool:

