@@ -256,7 +256,7 @@ def read_legs(joints: np.ndarray, template, vertices: np.ndarray, faces: np.ndar
         paw, tip = leg.chain[-2], leg.chain[-1]
         for j in leg.chain[:-1]:
             rule = model.get(template.names[j])
-            if rule is None:
+            if rule is None or "offset" not in rule:
                 continue
             height = rule.get("height")
             y = float(joints[j, 1]) if height is None else float(np.dot(height, joint_features(leg)))
@@ -288,10 +288,15 @@ def parse_legs(value, names, bad) -> dict | None:
     def numbers(v, n=2):
         return (isinstance(v, list) and len(v) == n
                 and all(isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) < 100 for x in v))
-    if not isinstance(value, dict) or not all(
-            k in names and isinstance(r, dict) and ("height" not in r or numbers(r["height"], FEATURES))
-            and numbers(r.get("offset")) for k, r in value.items()):
-        raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "offset": [x, z]}}')
-    return {k: {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
-                "offset": [float(x) for x in r["offset"]]} for k, r in value.items()} or None
+    def rule(r):    # a leg joint's, or the tail base's read off the rump (``autorig.rump``)
+        return isinstance(r, dict) and (
+            (set(r) == {"rump"} and numbers(r["rump"]))
+            or ("rump" not in r and ("height" not in r or numbers(r["height"], FEATURES))
+                and numbers(r.get("offset"))))
+    if not isinstance(value, dict) or not all(k in names and rule(r) for k, r in value.items()):
+        raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "offset": [x, z]}} '
+                  'or {"rump": [k, m]}')
+    return {k: {"rump": [float(x) for x in r["rump"]]} if "rump" in r else
+            {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
+             "offset": [float(x) for x in r["offset"]]} for k, r in value.items()} or None
 

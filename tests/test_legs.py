@@ -161,3 +161,36 @@ def test_a_head_chain_short_of_the_snout_counts_against_the_rig(template):
         joints[head_end, 2] - joints[neck, 2]) / length
     biped = load_template("biped")
     assert ends_short(V, np.zeros((len(biped.names), 3)), biped) == 0.0
+
+
+def test_short_legs_are_no_wrong_proportions(template):
+    """A four-legged rig's legs are read off the mesh, so their length is the animal's own: the confidence's
+    ``proportions`` (bone lengths against the examples') does not count them, and a dachshund-legged dog's rig
+    is as far from the examples' proportions as the dog's. Its neck made twice as long still counts."""
+    from autorig.confidence import features
+    sample = quadruped("dog")
+    _, truth = _canonical(sample)
+    joints = np.array([truth[n] for n in template.names])
+    short = joints.copy()
+    for chain in legs_of(template):     # every leg squeezed to 0.4 of its length towards its root
+        short[chain[1:]] = joints[chain[0]] + 0.4 * (joints[chain[1:]] - joints[chain[0]])
+    parts = {"limbs": 1.0, "extra": 1.0, "inside": 1.0, "symmetry": 1.0, "search": 1.0}
+    sigma = np.full(len(template.names), 0.3)
+    def proportions(j, t=template):
+        return features(parts, 0.1, j, t, sigma, np.zeros((0, 3)))["proportions"]
+    assert proportions(short) == pytest.approx(proportions(joints), abs=1e-12)
+    longer = joints.copy()
+    neck, chest = template.names.index("neck"), template.names.index("chest")
+    moved = [neck] + [j for j in range(len(joints)) if neck in _ancestors(template, j)]
+    longer[moved] += joints[neck] - joints[chest]
+    assert proportions(longer) > proportions(joints) + 0.1
+    bare = template_from_dict({k: v for k, v in template.to_dict().items() if k != "legs"})
+    assert proportions(short, bare) > proportions(joints, bare) + 1.0
+
+
+def _ancestors(template, j):
+    out = []
+    while template.parents[j] >= 0:
+        j = int(template.parents[j])
+        out.append(j)
+    return out

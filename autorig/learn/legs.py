@@ -9,7 +9,8 @@ each leg joint the example has:
     offset   where it sits across the leg's ring at that height, in ring widths (x towards the animal's own
              side, z forward): the median over the examples, so that one odd rig does not move every leg
 
-Returns {joint name: {"height": [FEATURES] (only for ``HEIGHT_FROM_LEGS``), "offset": [ox, oz]}} and a
+Returns {joint name: {"height": [FEATURES] (only for ``HEIGHT_FROM_LEGS``), "offset": [ox, oz]}}, with the
+tail base's rule read off the rump ({"tail_base": {"rump": [k, m]}}, ``autorig.rump.learn_rump``), and a
 report; joints fewer than ``MIN_EXAMPLES`` examples have, and the paws, are left to the placement.
 
 Which joints take what was chosen by cross-validation over the corpus's species groups (16 animals, 4 folds as
@@ -79,5 +80,9 @@ def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]
             rule = {"height": [round(float(c), 4) for c in coef], **rule}
         for j in {key, int(mirror[key])}:
             rules[template.names[j]] = rule
-    return rules, {"legs_measured": measured, "legs_total": len(legs_of(template)) * len(examples),
+    from ..rump import JOINT, learn_rump
+    rump, rumps = learn_rump(examples, per_example, template)
+    if rump is not None:
+        rules[JOINT] = {"rump": rump}
+    return rules, {"legs_measured": measured, "rumps_measured": rumps, "legs_total": len(legs_of(template)) * len(examples),
                    "joints": {template.names[k]: len(v) for k, v in sorted(samples.items())}}
