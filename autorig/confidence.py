@@ -108,6 +108,8 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     model = ConfidenceModel.from_dict(template.confidence)
     free_per_bone = posture_free_cost_per_bone(embedding, graph, template)
     values = features(parts, free_per_bone, joints, template, model.bone_log_sigma, field.surface_vertices)
+    # The rig's info shows the fit this confidence used: without the direction term and a read-off leg's length.
+    parts["fit"] = _fit_part(free_per_bone)
     return (model.probability(values) * beyond_calibration(parts, free_per_bone),
             {k: round(float(v), 3) for k, v in parts.items()})
 
