@@ -35,7 +35,7 @@ def test_the_snout_is_the_front_of_the_mesh_and_follows_a_longer_head(template):
     tips = []
     for head in (0.2, 0.3):
         depth, prepared, truth = _dog(head, template)
-        x, paws, tip, column = measure_head(depth, prepared.work_vertices, truth, template)
+        x, paws, (_, _, tip), column = measure_head(depth, prepared.work_vertices, truth, template)
         assert abs(x) < 0.01
         assert prepared.work_vertices[:, 2].max() - 2 * STEP <= tip <= prepared.work_vertices[:, 2].max()
         deepest, thickness = column((paws + tip) / 2)
@@ -44,11 +44,30 @@ def test_the_snout_is_the_front_of_the_mesh_and_follows_a_longer_head(template):
     assert tips[1] - tips[0] > 0.05
 
 
+def _short_of_the_snout(truth, template, by: float):
+    """``truth`` [J, 3] with the head chain's end pulled back along the back by ``by`` (heights), as an
+    embedding that stopped in the neck or a tusk leaves it."""
+    short = truth.copy()
+    short[template.names.index("head_end"), 2] -= by
+    return short
+
+
+def test_a_chain_that_reached_the_snout_keeps_its_head(template):
+    """The sample dog's own head chain ends at its snout: the rule leaves every joint; the same chain ending a
+    tenth of the height short of the snout has its head moved."""
+    depth, prepared, truth = _dog(0.26, template)
+    ruled = replace(template, legs={**template.legs, "head": {"snout": [0.4, 0.1]}})
+    np.testing.assert_array_equal(read_head(truth, ruled, depth, prepared.work_vertices), truth)
+    short = _short_of_the_snout(truth, template, 0.1)
+    assert np.any(read_head(short, ruled, depth, prepared.work_vertices) != short)
+
+
 def test_the_rule_moves_the_head_and_keeps_the_neck_between(template):
     depth, prepared, truth = _dog(0.26, template)
+    truth = _short_of_the_snout(truth, template, 0.1)
     bare = replace(template, legs={k: v for k, v in template.legs.items() if "snout" not in v})
     np.testing.assert_array_equal(read_head(truth, bare, depth, prepared.work_vertices), truth)
-    x, paws, tip, column = measure_head(depth, prepared.work_vertices, truth, template)
+    x, paws, (_, _, tip), column = measure_head(depth, prepared.work_vertices, truth, template)
     names = template.names
     head, neck, chest = names.index("head"), names.index("neck"), names.index("chest")
     for k, m in ((0.4, 0.1), (1.2, -0.2)):
