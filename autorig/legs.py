@@ -43,6 +43,8 @@ BEND_FROM = 0.15
 # the body's line, so the confidence of a template with legs is calibrated on the other joints.
 CONVENTION_JOINTS = ("hips", "spine", "chest", "neck")
 FEATURES = 3
+# The keys of the rules for joints read off the trunk rather than a leg: the rump's (tail base), the snout's (head).
+READ_OFF = {"rump", "snout"}
 # Where ``top`` looks: vertical lines through the top ring's centre offset by these fractions of its widths.
 TOP_RAYS = np.array([(dx, dz) for dx in (-0.25, 0.0, 0.25) for dz in (-0.25, 0.0, 0.25)])
 
@@ -288,15 +290,15 @@ def parse_legs(value, names, bad) -> dict | None:
     def numbers(v, n=2):
         return (isinstance(v, list) and len(v) == n
                 and all(isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) < 100 for x in v))
-    def rule(r):    # a leg joint's, or the tail base's read off the rump (``autorig.rump``)
+    def rule(r):    # a leg joint's, the tail base's read off the rump (``autorig.rump``) or the head's (``.head``)
         return isinstance(r, dict) and (
-            (set(r) == {"rump"} and numbers(r["rump"]))
-            or ("rump" not in r and ("height" not in r or numbers(r["height"], FEATURES))
+            (len(r) == 1 and set(r) <= READ_OFF and numbers(next(iter(r.values()))))
+            or (not set(r) & READ_OFF and ("height" not in r or numbers(r["height"], FEATURES))
                 and numbers(r.get("offset"))))
     if not isinstance(value, dict) or not all(k in names and rule(r) for k, r in value.items()):
         raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "offset": [x, z]}} '
-                  'or {"rump": [k, m]}')
-    return {k: {"rump": [float(x) for x in r["rump"]]} if "rump" in r else
+                  'or {"rump": [k, m]} or {"snout": [k, m]}')
+    return {k: {key: [float(x) for x in r[key]] for key in r} if set(r) & READ_OFF else
             {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
              "offset": [float(x) for x in r["offset"]]} for k, r in value.items()} or None
 

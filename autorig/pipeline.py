@@ -107,10 +107,12 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         joints = in_convention(joints, template, convention, field)
     if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
         from .legs import read_legs, surface_of
+        from .head import read_head
         from .rump import read_rump
         with stage("legs"):
             joints = read_legs(joints, template, *surface_of(field))
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
+            joints = read_head(joints, template, field.depth, surface_of(field)[0])
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers

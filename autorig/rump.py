@@ -63,19 +63,41 @@ def measure_rump(depth, vertices: np.ndarray, joints: np.ndarray, template) -> t
     return x, float(Z[i]), float(Y[int(np.argmax(d[i]))]), trunk
 
 
+def ruled_measurement(joints: np.ndarray, template, joint: str, key: str, measure, depth, vertices: np.ndarray):
+    """(the template's learned rule ``legs[joint][key]``, ``measure(depth, vertices, joints, template)``) for the
+    [J, 3] ``joints``, or None without the joint, the rule or the measurement."""
+    rule = (template.legs or {}).get(joint, {}).get(key)
+    if rule is None or joint not in template.names:
+        return None
+    measured = measure(depth, vertices, joints, template)
+    return None if measured is None else (rule, measured)
+
+
 def read_rump(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.ndarray:
     """[J, 3] ``joints`` with the tail's base moved by the template's learned rule to the mesh's rump
     (``measure_rump``); unchanged without the rule or the measurement."""
-    rule = (template.legs or {}).get(JOINT, {}).get("rump")
-    if rule is None or JOINT not in template.names:
+    found = ruled_measurement(joints, template, JOINT, "rump", measure_rump, depth, vertices)
+    if found is None:
         return joints
-    rump = measure_rump(depth, vertices, joints, template)
-    if rump is None:
-        return joints
-    x, end, middle, trunk = rump
+    rule, (x, end, middle, trunk) = found
     out = joints.copy()
     out[template.names.index(JOINT)] = [x, middle + rule[1] * trunk, end + rule[0] * trunk]
     return out
+
+
+def measured_examples(examples, per_example: np.ndarray, template, joint: str, measure):
+    """(truth [J, 3], measurement) of each of ``examples`` (``learn.examples.Example``, their joints in the
+    template frame ``per_example`` [N, J, 3]) that maps ``joint`` and whose mesh ``measure(depth, vertices,
+    joints, template)`` measures (not None), the depth being the working mesh's signed distance."""
+    from .distance import SurfaceQuery
+    for example, truth in zip(examples, per_example):
+        if joint not in example.key_of:
+            continue
+        prepared = example.prepared()
+        query = SurfaceQuery(prepared.work_vertices, prepared.work_faces)
+        measured = measure(lambda p: query.closest(p)[0], prepared.work_vertices, truth, template)
+        if measured is not None:
+            yield truth, measured
 
 
 def learn_rump(examples, per_example: np.ndarray, template) -> tuple[list[float] | None, int]:
@@ -83,21 +105,12 @@ def learn_rump(examples, per_example: np.ndarray, template) -> tuple[list[float]
     their joints in the template frame ``per_example`` [N, J, 3]) that have the tail's base and a rump, of how
     far behind the rump's end (k) and above its middle (m) their artists put it, in trunk depths. Medians, so
     that one species' odd joint (0 A.D.'s aurochs puts it deep in the rump) does not move every animal's."""
-    from .distance import SurfaceQuery
     if JOINT not in template.names:
         return None, 0
     j = template.names.index(JOINT)
-    rows = []
-    for example, truth in zip(examples, per_example):
-        if JOINT not in example.key_of:
-            continue
-        prepared = example.prepared()
-        query = SurfaceQuery(prepared.work_vertices, prepared.work_faces)
-        rump = measure_rump(lambda p: query.closest(p)[0], prepared.work_vertices, truth, template)
-        if rump is None:
-            continue
-        _, end, middle, trunk = rump
-        rows.append(((truth[j, 2] - end) / trunk, (truth[j, 1] - middle) / trunk))
+    rows = [((truth[j, 2] - end) / trunk, (truth[j, 1] - middle) / trunk)
+            for truth, (_, end, middle, trunk) in measured_examples(examples, per_example, template, JOINT,
+                                                                     measure_rump)]
     if len(rows) < MIN_EXAMPLES:
         return None, len(rows)
     return [round(float(v), 4) for v in np.median(np.array(rows), axis=0)], len(rows)

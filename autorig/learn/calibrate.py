@@ -74,9 +74,11 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray, convention:
     scored = sample.scored
     if template.legs:    # as the pipeline's legs stage places them, judged apart from the trunk's convention
         from ..legs import limb_joints, read_legs, surface_of
+        from ..head import read_head
         from ..rump import read_rump
         joints = read_legs(joints, template, *surface_of(sample.field))
         joints = read_rump(joints, template, sample.field.depth, surface_of(sample.field)[0])
+        joints = read_head(joints, template, sample.field.depth, surface_of(sample.field)[0])
         scored = scored & limb_joints(template)
     _, parts = rig_confidence(sample.field, sample.graph, sample.embedding, _without_model(template), joints)
     row = features(parts, posture_free_cost_per_bone(sample.embedding, sample.graph, template), joints, template,

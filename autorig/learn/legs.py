@@ -10,7 +10,8 @@ each leg joint the example has:
              side, z forward): the median over the examples, so that one odd rig does not move every leg
 
 Returns {joint name: {"height": [FEATURES] (only for ``HEIGHT_FROM_LEGS``), "offset": [ox, oz]}}, with the
-tail base's rule read off the rump ({"tail_base": {"rump": [k, m]}}, ``autorig.rump.learn_rump``), and a
+tail base's rule read off the rump ({"tail_base": {"rump": [k, m]}}, ``autorig.rump.learn_rump``), the head's
+read off the snout ({"head": {"snout": [k, m]}}, ``autorig.head.learn_head``), and a
 report; joints fewer than ``MIN_EXAMPLES`` examples have, and the paws, are left to the placement.
 
 Which joints take what was chosen by cross-validation over the corpus's species groups (16 animals, 4 folds as
@@ -84,5 +85,9 @@ def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]
     rump, rumps = learn_rump(examples, per_example, template)
     if rump is not None:
         rules[JOINT] = {"rump": rump}
-    return rules, {"legs_measured": measured, "rumps_measured": rumps, "legs_total": len(legs_of(template)) * len(examples),
+    from ..head import JOINT as HEAD, learn_head
+    head, heads = learn_head(examples, per_example, template)
+    if head is not None:
+        rules[HEAD] = {"snout": head}
+    return rules, {"legs_measured": measured, "rumps_measured": rumps, "heads_measured": heads, "legs_total": len(legs_of(template)) * len(examples),
                    "joints": {template.names[k]: len(v) for k, v in sorted(samples.items())}}
