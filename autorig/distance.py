@@ -87,12 +87,11 @@ class DistanceField:
     leaf_level [C] level of each leaf cell
     leaf_index [C, 3] integer coordinates of each leaf's minimum corner, in units of the smallest edge
     leaf_values [C, 8] signed depth at each leaf's corners (order of ``CORNERS``)
-    corner_keys [K] sorted keys of every evaluated corner (``_key`` of its finest-unit coordinates)
-    corner_depth [K] signed depth at those corners
+    corner_depth [K] signed depth at every evaluated corner, in the order they were evaluated
     corner_nearest [K, 3] nearest surface point of those corners
     surface    the exact query object, for callers that need exact values
-    corner_row [(2**max_level + 1)**3] row in corner_keys of each point of the finest grid (x-major; -1 where
-               no corner was evaluated); see ``corner_rows``
+    corner_row [(2**max_level + 1)**3] row in corner_depth (and corner_nearest) of each point of the finest
+               grid (x-major; -1 where no corner was evaluated); see ``corner_rows``
     """
     origin: np.ndarray
     size: float
@@ -100,7 +99,6 @@ class DistanceField:
     leaf_level: np.ndarray
     leaf_index: np.ndarray
     leaf_values: np.ndarray
-    corner_keys: np.ndarray
     corner_depth: np.ndarray
     corner_nearest: np.ndarray
     surface: SurfaceQuery
@@ -112,7 +110,7 @@ class DistanceField:
         return self.size / 2 ** self.max_level
 
     def corner_rows(self, index: np.ndarray) -> np.ndarray:
-        """Rows [N] in corner_keys (and corner_depth, corner_nearest) of evaluated corners given by integer
+        """Rows [N] in corner_depth (and corner_nearest) of evaluated corners given by integer
         coordinates [N, 3] in finest-edge units."""
         return self.corner_row[grid_number(index, self.max_level)]
 
@@ -265,7 +263,6 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     # (~0.06 s of a 100k-corner field).
     side = 2 ** max_level + 1
     row_of = np.full(side ** 3, -1, dtype=np.int32)
-    evaluated = []                                 # grid numbers of the evaluated corners, batch by batch
     known_depth = np.zeros(0)                      # [K] signed depth in order of evaluation
     nearest_parts = []                             # [k, 3] nearest surface points, batch by batch
 
@@ -287,7 +284,6 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
             else:
                 d, near = surface.closest(points)
             row_of[new] = np.arange(len(known_depth), len(known_depth) + len(new), dtype=np.int32)
-            evaluated.append(new)
             known_depth = np.concatenate([known_depth, d])
             nearest_parts.append(near)
             rows = row_of[numbers]
@@ -324,14 +320,8 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
         if len(cells) == 0:
             break
 
-    # The corners sorted by key once, at the end, and the table pointed at their sorted rows.
-    numbers = np.concatenate(evaluated)
-    order = np.argsort(numbers)
-    row_of[numbers[order]] = np.arange(len(numbers), dtype=np.int32)
-    corner_index = grid_index(numbers, max_level)
     return DistanceField(
         origin=origin, size=size, max_level=max_level,
         leaf_level=np.concatenate(leaves_level), leaf_index=np.concatenate(leaves_index),
-        leaf_values=np.concatenate(leaves_values), corner_keys=_key(corner_index[order]),
-        corner_depth=known_depth[order], corner_nearest=np.concatenate(nearest_parts)[order], surface=surface,
-        corner_row=row_of)
+        leaf_values=np.concatenate(leaves_values), corner_depth=known_depth,
+        corner_nearest=np.concatenate(nearest_parts), surface=surface, corner_row=row_of)

@@ -40,6 +40,7 @@ def measure_head(depth, vertices: np.ndarray, joints: np.ndarray, template) -> t
     height, depth) of the mid-plane's column at z, or None when it is not inside; None without front legs or a
     snout ahead of them."""
     from .legs import legs_of
+    from .rump import midplane_depths
     feet = np.array([joints[chain[-1]] for chain in legs_of(template)]).reshape(-1, 3)
     roots = np.array([joints[chain[0]] for chain in legs_of(template)]).reshape(-1, 3)
     if len(feet) < 4:
@@ -52,8 +53,7 @@ def measure_head(depth, vertices: np.ndarray, joints: np.ndarray, template) -> t
         return None
 
     def grid(z: np.ndarray) -> np.ndarray:      # [len(z), len(Y)] depths of the mid-plane's columns at z
-        zz, yy = np.meshgrid(z, Y, indexing="ij")
-        return np.asarray(depth(np.c_[np.full(zz.size, x), yy.ravel(), zz.ravel()]), float).reshape(len(z), len(Y))
+        return midplane_depths(depth, x, z, Y)
 
     inside = np.nonzero(grid(Z).max(axis=1) > 0)[0]
     if not len(inside) or Z[inside[-1]] - paws < 2 * STEP:

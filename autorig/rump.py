@@ -49,8 +49,7 @@ def measure_rump(depth, vertices: np.ndarray, joints: np.ndarray, template) -> t
     Y = np.arange(low, high, STEP)
     if len(Z) < 2 or len(Y) < 2 or not np.any(Z >= hind_z):
         return None
-    zz, yy = np.meshgrid(Z, Y, indexing="ij")
-    d = np.asarray(depth(np.c_[np.full(zz.size, x), yy.ravel(), zz.ravel()]), float).reshape(len(Z), len(Y))
+    d = midplane_depths(depth, x, Z, Y)
     column = d.max(axis=1)                                           # [Z]
     trunk = float(column[Z >= hind_z].max())
     if trunk < STEP:
@@ -61,6 +60,13 @@ def measure_rump(depth, vertices: np.ndarray, joints: np.ndarray, template) -> t
     while i > 0 and column[i - 1] >= HALF * trunk:
         i -= 1
     return x, float(Z[i]), float(Y[int(np.argmax(d[i]))]), trunk
+
+
+def midplane_depths(depth, x: float, Z: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """[len(Z), len(Y)] signed ``depth`` (points [N, 3] -> [N]) on the plane at ``x``, at every (Y, Z) of the
+    grids Z [nz] and Y [ny]: the columns the rump and the snout are read from."""
+    zz, yy = np.meshgrid(Z, Y, indexing="ij")
+    return np.asarray(depth(np.c_[np.full(zz.size, x), yy.ravel(), zz.ravel()]), float).reshape(len(Z), len(Y))
 
 
 def ruled_measurement(joints: np.ndarray, template, joint: str, key: str, measure, depth, vertices: np.ndarray):

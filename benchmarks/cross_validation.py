@@ -63,6 +63,11 @@ def rig_and_score(score, gt, mesh: Path, template, options, out: Path):
     return rig, result
 
 
+def dealt(items: list[tuple[Path, str]], folds: int) -> dict[str, int]:
+    """{group: fold} of the (folder, group) ``items``: the groups, sorted, dealt round-robin into ``folds``."""
+    return {g: k % folds for k, g in enumerate(sorted({g for _, g in items}))}
+
+
 def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, say, parts=None) -> list[dict]:
     sys.path.insert(0, str(shared / "tools"))
     import score
@@ -72,8 +77,7 @@ def evaluate(kind: str, train: Path, folds: int, out_dir: Path, shared: Path, sa
     from autorig.template import load_template
 
     items = corpus(train, kind)
-    groups = sorted({g for _, g in items})
-    fold_of = {g: k % folds for k, g in enumerate(groups)}
+    fold_of = dealt(items, folds)
     handset = load_template(HANDSET / f"{kind}.json")
     rows = []
     for fold in range(folds):

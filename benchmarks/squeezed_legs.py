@@ -49,8 +49,7 @@ def main(argv=None) -> int:
     sys.path.insert(0, str(args.shared / "tools"))
     import score
     items = cross_validation.corpus(args.shared / "data" / "train", "quadruped")
-    groups = sorted({g for _, g in items})
-    fold_of = {g: k % args.folds for k, g in enumerate(groups)}    # as cross_validation.evaluate deals them
+    fold_of = cross_validation.dealt(items, args.folds)
     rows = []
     for folder, group in items:
         template = args.rigs / f"quadruped_fold{fold_of[group]}.json"
