@@ -13,13 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from hypothesis import HealthCheck, given, settings
 
 import autorig
 from autorig.extract import AUTO, fixed_axes
 from autorig.extract.shapes import (CreatureSpec, LimbSpec, NumpyDraw, creature, random_creature, score_limbs, star,
                                     tree)
-from creatures import creatures
 from autorig.extract.skeleton import best_split, split_chain
 from autorig.mesh import load_mesh
 
@@ -205,12 +203,13 @@ def test_regression_creatures(seed):
     assert_rigger_would_draw(score)
 
 
-@settings(max_examples=16, derandomize=True, deadline=None, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-@given(spec=creatures())
-def test_random_creatures_get_one_chain_per_limb(spec):
-    """A small, fixed sample: ``benchmarks/extract_stages.py`` runs 200 of them."""
-    _, _, score = creature_rig(spec)
+# A fixed sample of the benchmark's creatures (``benchmarks/extract_stages.py`` draws 200 from numpy seeds). It was
+# drawn by hypothesis, whose sample, derandomized, still depends on the numbers written in every module loaded
+# (it draws from them), so it changed with what else the run collected: this file alone passed, the whole suite
+# failed once a new test file was added.
+@pytest.mark.parametrize("seed", range(16))
+def test_random_creatures_get_one_chain_per_limb(seed):
+    _, _, score = creature_rig(random_creature(NumpyDraw(np.random.default_rng(seed))))
     assert_rigger_would_draw(score)
 
 
