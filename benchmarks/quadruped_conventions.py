@@ -18,6 +18,14 @@ along the body is right by construction. A last line does the same with hindsigh
 every animal, the held-out one's own group included, as if its convention were already known. It is not a
 bound on every possible method (one might read a convention off the mesh), but it shows how far apart the
 species' own conventions put the trunk joints.
+
+The same guesses are also scored apart from the trunk convention (``quadruped_score.convention_free``: limbs as
+points, the artist's trunk joints against the guessed hips-spine-chest-neck-head line), as issue 26's targets
+are. And since a line can only be so close to joints the artists put at different depths of the body, the last
+table gives, for each trunk joint, how deep in the body each artist put it: the fraction of the body's depth at
+that point (0 at the belly, 1 at the back: the lowest and highest surface crossings of the vertical line through
+the joint), and the least worst error, as a fraction of the height, of any rule that puts the joint at one
+fraction of the depth for every species (the best such fraction chosen with hindsight).
 """
 from __future__ import annotations
 
@@ -48,7 +56,8 @@ def animals(shared: Path) -> list[dict]:
         joints = {k: gt["joint_pos"][index[n]] - origin for k, n in gt["map"].items() if n is not None}
         if all(p in joints for pair in PAWS for p in pair):
             out.append({"name": folder.name, "group": group, "width": float(hi[0] - lo[0]),
-                        "height": float(gt["height"]), "joints": joints})
+                        "height": float(gt["height"]), "joints": joints,
+                        "vertices": gt["V"] - origin, "faces": gt["F"]})
     return out
 
 
@@ -72,13 +81,72 @@ def from_paw_frame(animal: dict, q: np.ndarray) -> np.ndarray:
 def convention_errors(animal: dict, examples: list[dict]) -> dict[str, float]:
     """{joint key: error as a fraction of the height} of ``animal``'s joints put at the median of where the
     ``examples`` put them, in the paw frame (joints no example has are left out)."""
-    errors = {}
-    for key, truth in animal["joints"].items():
+    return {key: float(np.linalg.norm(guess - animal["joints"][key]) / animal["height"])
+            for key, guess in guessed(animal, examples).items()}
+
+
+def column(vertices: np.ndarray, faces: np.ndarray, x: float, z: float) -> tuple[float, float] | None:
+    """(lowest, highest) height where the vertical line through (x, z) crosses the mesh (vertices [V, 3],
+    faces [F, 3]), or None if it misses."""
+    tri = vertices[faces]                                            # [F, 3, 3]
+    a, b, c = (tri[:, k][:, [0, 2]] for k in range(3))               # [F, 2] each, the (x, z) plane
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    ok = np.abs(det) > 1e-15
+    px, pz = x - a[:, 0], z - a[:, 1]
+    u = np.where(ok, (px * (c[:, 1] - a[:, 1]) - pz * (c[:, 0] - a[:, 0])) / np.where(ok, det, 1.0), -1.0)
+    v = np.where(ok, (pz * (b[:, 0] - a[:, 0]) - px * (b[:, 1] - a[:, 1])) / np.where(ok, det, 1.0), -1.0)
+    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
+    if not hit.any():
+        return None
+    y = tri[hit, 0, 1] + u[hit] * (tri[hit, 1, 1] - tri[hit, 0, 1]) + v[hit] * (tri[hit, 2, 1] - tri[hit, 0, 1])
+    return float(y.min()), float(y.max())
+
+
+def trunk_depths(every: list[dict]) -> dict[str, list[tuple[float, float]]]:
+    """{trunk key: [(fraction of the body's depth at the joint, that depth / height)] over ``every`` animal
+    that has the joint and whose vertical line through it crosses the mesh}."""
+    from quadruped_score import TRUNK
+    out: dict[str, list[tuple[float, float]]] = {}
+    for animal in every:
+        for key in TRUNK:
+            p = animal["joints"].get(key)
+            found = None if p is None else column(animal["vertices"], animal["faces"], float(p[0]), float(p[2]))
+            if found is not None and found[1] > found[0]:
+                low, high = found
+                out.setdefault(key, []).append(((p[1] - low) / (high - low), (high - low) / animal["height"]))
+    return out
+
+
+def best_fraction(rows: list[tuple[float, float]]) -> tuple[float, float]:
+    """(fraction, worst error as a fraction of the height) of the one depth fraction that minimises the worst
+    error over ``rows`` [(fraction, depth / height)]."""
+    grid = np.linspace(0.0, 1.0, 1001)
+    worst = np.max([np.abs(grid - f) * depth for f, depth in rows], axis=0)
+    return float(grid[np.argmin(worst)]), float(worst.min())
+
+
+def free_summary(every: list[dict], guesses: list[dict[str, np.ndarray]]) -> str:
+    """Issue 26's convention-free score (``quadruped_score.convention_free``) of the guessed joints."""
+    from quadruped_score import convention_free
+    scores = [convention_free(a["joints"], g, a["height"]) for a, g in zip(every, guesses)]
+    limbs = [s["limbs_mean"] for s in scores]
+    worst = [s["limbs_worst"] for s in scores]
+    trunk = [s["trunk_worst"] for s in scores if s["trunk_worst"] is not None]
+    return (f"limbs mean {np.mean(limbs):.1f} %, worst limb joint {np.max(worst):.1f} % (median "
+            f"{np.median(worst):.1f}; {sum(w <= 12 for w in worst)}/{len(worst)} within 12 %); trunk off the line: "
+            f"worst {np.max(trunk):.1f} % (median {np.median(trunk):.1f}; {sum(t <= 6 for t in trunk)}/{len(trunk)} "
+            f"within 6 %)")
+
+
+def guessed(animal: dict, examples: list[dict]) -> dict[str, np.ndarray]:
+    """{joint key: [3]} ``animal``'s joints put at the median of where the ``examples`` put them, in the paw
+    frame (joints no example has are left out)."""
+    out = {}
+    for key in animal["joints"]:
         seen = [in_paw_frame(o, key) for o in examples if key in o["joints"]]
         if seen:
-            guess = from_paw_frame(animal, np.median(seen, axis=0))
-            errors[key] = float(np.linalg.norm(guess - truth) / animal["height"])
-    return errors
+            out[key] = from_paw_frame(animal, np.median(seen, axis=0))
+    return out
 
 
 def summary(errors: list[dict[str, float]]) -> str:
@@ -110,6 +178,22 @@ def main(argv=None) -> int:
         print(f"  {key:22s} {100 * np.mean(values):5.1f}")
     hindsight = [convention_errors(animal, every) for animal in every]
     print(f"\nwith hindsight (each animal's own group among the medians): {summary(hindsight)}")
+    held_out = [guessed(a, [o for o in every if o["group"] != a["group"]]) for a in every]
+    print(f"\napart from the trunk convention (issue 26's score), held out: {free_summary(every, held_out)}")
+    print(f"  with hindsight: {free_summary(every, [guessed(a, every) for a in every])}")
+    print("\nhow deep in the body the artists put the trunk joints (0 belly, 1 back), and the least worst error of "
+          "one fraction for all:")
+    for key, rows in trunk_depths(every).items():
+        fractions = np.array([f for f, _ in rows])
+        best, worst = best_fraction(rows)
+        print(f"  {key:6s} {len(rows):2d} animals: fraction {fractions.min():.2f}-{fractions.max():.2f} (median "
+              f"{np.median(fractions):.2f}); best one fraction {best:.2f} leaves {100 * worst:.1f} % of the height")
+    along = {a["name"]: 100 * (a["joints"]["hips"][2] - np.mean([a["joints"][f"back_{s}_hip"][2]
+                                                              for s in ("left", "right")])) / a["height"]
+             for a in every if all(k in a["joints"] for k in ("hips", "back_left_hip", "back_right_hip"))}
+    behind, ahead = min(along, key=along.get), max(along, key=along.get)
+    print(f"\nthe hips joint along the body from the hind legs' roots (% of the height, + forward): "
+          f"{along[behind]:+.1f} ({behind}) to {along[ahead]:+.1f} ({ahead}), median {np.median(list(along.values())):+.1f}")
     return 0
 
 

@@ -8,7 +8,8 @@ and horse.obj, each brought to every size by loop subdivision then quadric decim
 count (built once into a temporary folder). Every run is a fresh `autorig MESH -o OUT.glb -v` process with
 the default options (orientation detected), after one untimed warm-up run, timed from outside; peak RSS is that process's own (wait4).
 Printed: the median wall time of the runs (fork to exit of the autorig process), the median of each stage's
-time (from -v), the peak RSS, and
+time (from -v), the time outside every stage (the total less the stages' medians: starting Python, the
+imports a rig needs, the command line; the floor no stage's speed-up reaches), the peak RSS, and
 per stage the exponent b of time ~ faces^b fitted over the sizes. Also `autorig --help` / `--version`.
 ``--templates`` also rigs the mannequin with each of those templates (rows ``mannequin-NAME``), e.g. the
 humanoid against the biped on the same meshes.
@@ -138,10 +139,10 @@ def main(argv=None) -> int:
                          {k: statistics.median(v) for k, v in per_stage.items()}))
 
     stage_names = list(rows[0][4])
-    print(f"\n{'mesh':10s} {'faces':>8s} {'total s':>8s} {'peak MB':>8s}  " +
+    print(f"\n{'mesh':10s} {'faces':>8s} {'total s':>8s} {'outside':>8s} {'peak MB':>8s}  " +
           " ".join(f"{s[:12]:>12s}" for s in stage_names))
     for name, size, total, rss, per_stage in rows:
-        print(f"{name:10s} {size:8d} {total:8.2f} {rss:8d}  " +
+        print(f"{name:10s} {size:8d} {total:8.2f} {total - sum(per_stage.values()):8.2f} {rss:8d}  " +
               " ".join(f"{per_stage.get(s, float('nan')):12.3f}" for s in stage_names))
     if len(sizes) < 2:
         return 0
