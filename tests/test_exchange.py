@@ -83,6 +83,22 @@ def test_gltf_round_trip(tmp_path, fmt):
 
 
 @pytest.mark.parametrize("fmt", ["glb", "gltf"])
+def test_gltf_records_the_characters_axes(tmp_path, fmt):
+    """The axes the character stands on in the file go in the scene's extras and come back as the rig's."""
+    from dataclasses import replace
+    rig = replace(make_rig(), info={"up": "z", "front": "-y"})
+    back = read_glb(write_rig(rig, tmp_path / f"rig.{fmt}", fmt))
+    assert back.info == {"up": "z", "front": "-y"}
+    assert read_glb(write_rig(make_rig(), tmp_path / f"none.{fmt}", fmt)).info == {}
+    # Axes that are not two perpendicular axis names are not taken.
+    for axes in ({"up": "z", "front": "-z"}, {"up": "w", "front": "y"}, {"up": 1, "front": "y"}, ["z", "y"]):
+        doc = pygltflib.GLTF2().load(str(tmp_path / f"rig.{fmt}"))
+        doc.scenes[0].extras = {"autorig_axes": axes}
+        doc.save(str(tmp_path / f"bad.{fmt}"))
+        assert read_glb(tmp_path / f"bad.{fmt}").info == {}
+
+
+@pytest.mark.parametrize("fmt", ["glb", "gltf"])
 def test_gltf_passes_khronos_validator(tmp_path, fmt):
     path = write_rig(make_rig(), tmp_path / f"rig.{fmt}", fmt)
     report = validate(path)

@@ -335,6 +335,22 @@ def test_cli_writes_one_posed_frame(files, rig, animation, dqs):
     assert np.abs(vertices - skin(back, animation.rotations[1], animation.positions[1], dqs=dqs)).max() < 1e-4
 
 
+def test_cli_poses_a_file_in_the_axes_autorig_recorded(files, rig, tmp_path):
+    """The same character stored Z-up and facing -y moves the same way, turned, without --up/--front."""
+    from dataclasses import replace
+
+    from autorig.mesh import frame_rotation
+    rotation = frame_rotation("z", "-y").T  # canonical -> input coordinates
+    turned = replace(rig, vertices=rig.vertices @ rotation.T, joints=rig.joints @ rotation.T,
+                     info={**rig.info, "up": "z", "front": "-y"})
+    write_glb(turned, tmp_path / "lying.glb")
+    for source, out in ((files / "hero.glb", tmp_path / "upright.obj"), (tmp_path / "lying.glb", tmp_path / "lying.obj")):
+        result = run("pose", source, "-m", files / "moves.bvh", "--frame", 1, "-o", out)
+        assert result.exit_code == 0, result.output
+    upright, lying = load_mesh(tmp_path / "upright.obj")[0], load_mesh(tmp_path / "lying.obj")[0]
+    assert np.abs(upright).max() > 0.5 and np.abs(lying - upright @ rotation.T).max() < 1e-4
+
+
 @pytest.mark.parametrize("args, message", [
     (["--dqs"], "--dqs applies to --frame"),
     (["-o", "out.obj"], "the animated rig is a .glb file"),

@@ -89,6 +89,24 @@ def test_preview_command(rig, tmp_path):
     assert (tmp_path / "other.png").exists()
 
 
+def test_the_command_draws_a_file_in_the_axes_autorig_recorded(rig, tmp_path):
+    """A Z-up character's rig file is drawn upright without --up/--front: the file says how it stands."""
+    rotation = frame_rotation("z", "-y").T  # canonical -> input coordinates
+    turned = replace(rig, vertices=rig.vertices @ rotation.T, joints=rig.joints @ rotation.T,
+                     info={**rig.info, "up": "z", "front": "-y"})
+    write_glb(rig, tmp_path / "upright.glb")
+    write_glb(turned, tmp_path / "lying.glb")
+    for name, extra in (("upright", []), ("lying", []), ("told", ["--up", "y", "--front", "z"])):
+        source = tmp_path / ("upright.glb" if name == "upright" else "lying.glb")
+        result = run("preview", source, "-o", tmp_path / f"{name}.png", "--title", "same", "-q", *extra)
+        assert result.exit_code == 0, result.output
+    assert np.array_equal(pixels(tmp_path / "upright.png"), pixels(tmp_path / "lying.png"))
+    assert not np.array_equal(pixels(tmp_path / "upright.png"), pixels(tmp_path / "told.png"))
+    # Axes that contradict the file's are one error line.
+    result = run("preview", tmp_path / "lying.glb", "--front", "z", "-o", tmp_path / "bad.png")
+    assert result.exit_code == 2 and "parallel" in result.stderr
+
+
 def test_preview_command_errors(tmp_path):
     result = run("preview", tmp_path / "absent.glb")
     assert result.exit_code == 2 and result.stderr.startswith("autorig: error: cannot read")

@@ -214,3 +214,12 @@ def require_matplotlib(what: str) -> None:
 def preview_title(name: str, rig) -> str:
     """The heading of a rig's picture: file name, template and counts."""
     return f"{name}: {rig.template or 'rig'}, {len(rig.names)} joints, {len(rig.vertices)} vertices"
+
+
+def rig_axes(rig, up: str | None, front: str | None) -> tuple[str, str]:
+    """(up, front) of a rig read from a file: the ones given, else the ones autorig recorded in it
+    (``exchange.gltf.recorded_axes``), else glTF's y and z; raises ``AxisError`` when they are parallel."""
+    from ..mesh import frame_rotation
+    up, front = up or rig.info.get("up") or "y", front or rig.info.get("front") or "z"
+    frame_rotation(up, front)
+    return up, front

@@ -6,7 +6,7 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import EXIT_CODES, RIG_AXES, check_output, common_options, refuse_input
+from .common import EXIT_CODES, RIG_AXES, check_output, common_options, refuse_input, rig_axes
 
 
 @click.command("pose", epilog=EXIT_CODES, short_help="Move a rig file with a BVH motion.")
@@ -23,14 +23,14 @@ from .common import EXIT_CODES, RIG_AXES, check_output, common_options, refuse_i
 @click.option("--map", "map_file", metavar="JSON",
               help="Joint map file {rig joint: motion joint, or null}, applied over the built-in table "
                    "(CMU and mixamo names, for the biped and humanoid templates).")
-@click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False), default="y", show_default=True,
-              help="The rig's up axis.")
-@click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False), default="z", show_default=True,
-              help="The axis the character faces.")
+@click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False),
+              help="The rig's up axis. [default: the axes autorig recorded in the file, else y]")
+@click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False),
+              help="The axis the character faces. [default: the file's recorded axes, else z]")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @common_options
 def pose_command(rig_file: str, motion: str, output: str | None, frame: int | None, dqs: bool,
-                 map_file: str | None, up: str, front: str, quiet: bool):
+                 map_file: str | None, up: str | None, front: str | None, quiet: bool):
     """Retarget the BVH motion onto the rig in RIG (.glb or .gltf, e.g. autorig's output) by joint names and
     write the rig animated (.glb: each joint's rotation and the root's translation, at the motion's frame
     times), or one frame's deformed mesh (--frame N, .obj). Motion is scaled to the rig's hip height.
@@ -55,12 +55,11 @@ def pose_command(rig_file: str, motion: str, output: str | None, frame: int | No
 
     from ..exchange.bvh import read_bvh
     from ..exchange.gltf import read_glb
-    from ..mesh import frame_rotation
     from ..pose import joint_map, read_map, retarget
 
-    frame_rotation(up, front)
     with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
+        up, front = rig_axes(rig, up, front)
         moves = read_bvh(motion_path)
         if frame is not None and frame >= len(moves.frames):
             raise click.BadParameter(f"{frame}: the motion has {len(moves.frames)} frames (0 to "

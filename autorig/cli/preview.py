@@ -7,36 +7,36 @@ import click
 
 from ..quiet import quiet_libraries
 from .common import (EXIT_CODES, RIG_AXES, check_output, common_options, preview_title, refuse_input,
-                     require_matplotlib)
+                     require_matplotlib, rig_axes)
 
 
 @click.command("preview", epilog=EXIT_CODES, short_help="Draw a rig file to a PNG.")
 @click.argument("rig_file", metavar="RIG")
 @click.option("-o", "--output", metavar="PATH",
               help="Where to write the PNG. [default: beside RIG, e.g. hero.rigged.glb -> hero.rigged.png]")
-@click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False), default="y", show_default=True,
-              help="The rig's up axis.")
-@click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False), default="z", show_default=True,
-              help="The axis the character faces.")
+@click.option("--up", type=click.Choice(RIG_AXES, case_sensitive=False),
+              help="The rig's up axis. [default: the axes autorig recorded in the file, else y]")
+@click.option("--front", type=click.Choice(RIG_AXES, case_sensitive=False),
+              help="The axis the character faces. [default: the file's recorded axes, else z]")
 @click.option("--title", metavar="TEXT", help="The picture's heading. [default: file name, template, counts]")
 @click.option("-q", "--quiet", is_flag=True, help="Print nothing on success.")
 @common_options
-def preview_command(rig_file: str, output: str | None, up: str, front: str, title: str | None, quiet: bool):
+def preview_command(rig_file: str, output: str | None, up: str | None, front: str | None, title: str | None,
+                    quiet: bool):
     """Draw the skinned mesh in RIG (.glb or .gltf, e.g. autorig's output) to a PNG: front and side views
     coloured by each vertex's strongest joint, the skeleton and joint names over them. Needs matplotlib
     (pip install 'autorig[preview]')."""
     require_matplotlib("autorig preview")
     from ..exchange.gltf import read_glb
-    from ..mesh import frame_rotation
     from ..preview import render_preview
 
-    frame_rotation(up, front)
     rig_path = Path(rig_file)
     out_path = Path(output) if output else rig_path.with_suffix(".png")
     refuse_input(out_path, rig_path)
     check_output(out_path, "png")
     with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
+        up, front = rig_axes(rig, up, front)
         render_preview(rig, out_path, title=title if title is not None else preview_title(rig_path.name, rig),
                        up=up, front=front)
     if not quiet:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import base64
 import binascii
 import os
+import re
 import struct
 from pathlib import Path
 
@@ -219,6 +220,11 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
     if rig.info.get("dropped"):
         # What of the input's look could not come along (autorig.confine), for whoever opens the file.
         scene_extras["autorig_dropped"] = rig.info["dropped"]
+    if rig.info.get("up") and rig.info.get("front"):
+        # The axes the character stands on in this file (given or detected): glTF assumes +y up and +z front,
+        # so a Z-up scan's rig would be drawn and posed lying down by whoever reads it without them
+        # (``autorig preview``, ``autorig pose``).
+        scene_extras["autorig_axes"] = {"up": str(rig.info["up"]), "front": str(rig.info["front"])}
     if rig.info.get("hands"):
         # Which hands got fingers (autorig.hands): {"left": "fingers", "right": "mitten"}.
         scene_extras["autorig_hands"] = rig.info["hands"]
@@ -283,8 +289,23 @@ def _read(path: Path, data: bytes) -> Rig:
     weights = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
     names = [nodes[skin_joints[j]].name or f"joint_{j}" for j in order]
     return Rig(names=names, parents=parents, joints=positions[order], weights=weights[:, order],
-               vertices=vertices, faces=faces, template=skin.name or "",
+               vertices=vertices, faces=faces, template=skin.name or "", info=recorded_axes(doc),
                look=look_of(doc, buffers, gathered, mesh_nodes, path) if _has_look(doc, gathered) else None)
+
+
+def recorded_axes(doc: GLTF2) -> dict:
+    """{"up": axis, "front": axis} as autorig recorded them in the scene's extras (``autorig_axes``), or {}
+    for a file without them or with axes that are not two perpendicular axis names."""
+    scenes = doc.scenes or []
+    scene = scenes[doc.scene if isinstance(doc.scene, int) and 0 <= doc.scene < len(scenes) else 0] if scenes else None
+    axes = scene.extras.get("autorig_axes") if scene is not None and isinstance(scene.extras, dict) else None
+    if not isinstance(axes, dict) or not all(isinstance(axes.get(k), str) for k in ("up", "front")):
+        return {}
+    # ``mesh.axis_vector``'s spelling ('x', '+y', '-z'), checked here since ``mesh`` reads glTF through us.
+    specs = [a.strip().lower() for a in (axes["up"], axes["front"])]
+    if not all(re.fullmatch(r"[+-]?[xyz]", a) for a in specs) or specs[0][-1] == specs[1][-1]:
+        return {}
+    return {"up": axes["up"], "front": axes["front"]}
 
 
 def read_gltf_scene(path: str | os.PathLike, allow_outside: bool = False, max_faces: int | None = None,
