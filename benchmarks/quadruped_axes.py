@@ -27,9 +27,9 @@ sideways).
 
 ``--explain`` prints instead why, per animal as built (and per corpus animal with ``--corpus``): the embedding's
 penalty facing backwards minus facing the right way (both searched as long as detection searches its two best
-frames; negative: the embedding alone turns it round), the outline cue (``orient.head_tail_cue``) and what the
-template's weight makes of it (2 w cue: the prior's difference between the two frames), and a weight-share cue
-that autorig does not use: where the medial spheres' volume (sum of r^3) lies between the back and front feet
+frames; negative: the embedding alone turns it round), the outline cue (``orient.head_tail_cue``), the limb
+ends' bulk cue (``ends.end_bulk_cue``) and what the template's weights make of them (2 w . cues: the prior's
+difference between the two frames), and a weight-share cue that autorig does not use: where the medial spheres' volume (sum of r^3) lies between the back and front feet
 (-1 over the back feet, +1 over the front ones; most four-legged animals carry more weight on their front legs).
 """
 from __future__ import annotations
@@ -252,22 +252,24 @@ def explain(families: list[str], per_family: int, seed: int, template_name: str,
     """Print the embedding's gap and the cues of every animal (see the module docstring)."""
     from autorig.template import load_template
     template = load_template(template_name)
-    print(f"{'animal':24s} {'back - own':>10s} {'outline':>8s} {'2 w cue':>8s} {'sum':>7s} {'share':>6s}")
+    print(f"{'animal':24s} {'back - own':>10s} {'outline':>8s} {'bulk':>6s} {'2 w.cues':>8s} {'sum':>7s} {'share':>6s}")
     rows = [(a.name, a.vertices, a.faces) for fam in families for a in family(fam, per_family, seed)]
     if corpus is not None:
         rows += list(_corpus_animals(corpus))
     for name, vertices, faces in rows:
-        gap, outline, share = ends_explained(vertices, faces, template)
-        prior = 2 * template.head_tail * outline
-        print(f"{name:24s} {gap:10.2f} {outline:8.2f} {prior:8.2f} {gap + prior:7.2f} {share:6.2f}", flush=True)
+        gap, outline, bulk, prior, share = ends_explained(vertices, faces, template)
+        print(f"{name:24s} {gap:10.2f} {outline:8.2f} {bulk:6.2f} {prior:8.2f} {gap + prior:7.2f} {share:6.2f}",
+              flush=True)
     return 0
 
 
-def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[float, float, float]:
-    """(embedding penalty facing -z minus facing +z, outline cue, weight share) of a +y up, +z front animal
-    (vertices [V, 3], faces [F, 3])."""
+def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[float, ...]:
+    """(embedding penalty facing -z minus facing +z, outline cue, bulk cue, the weighted cues' difference
+    between the two frames, weight share) of a +y up, +z front animal (vertices [V, 3], faces [F, 3])."""
+    from autorig.ends import end_bulk_cue
     from autorig.mesh import prepare
-    from autorig.orient import DECISION_EXPANSIONS, FEET_BAND, _embedding_cost, _problem, head_tail_cue
+    from autorig.orient import (DECISION_EXPANSIONS, FEET_BAND, _embedding_cost, _problem, head_tail_cue,
+                                weighted_cues)
     from autorig.pipeline import discretize
     prepared = prepare(vertices, faces, "y", "z")
     _, graph = discretize(prepared)
@@ -281,7 +283,8 @@ def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[f
     volume = graph.radii ** 3
     centre = float(volume @ graph.centers[:, 2] / volume.sum())
     share = (centre - (feet.min() + feet.max()) / 2) / max((feet.max() - feet.min()) / 2, 1e-9)
-    return back_cost - own_cost, head_tail_cue(V), float(share)
+    prior = 2 * weighted_cues(template, graph, V)    # the cues negate when the shape is turned round
+    return back_cost - own_cost, head_tail_cue(V), end_bulk_cue(graph, V), prior, float(share)
 
 
 def _corpus_animals(train: Path):
