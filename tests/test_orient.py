@@ -110,6 +110,8 @@ def test_head_tail_weight_is_learned_from_animals():
                              parts=("orientation",))
     record = learned.template.learned_from["head_tail"]
     assert learned.template.head_tail > 0.2
+    assert learned.template.head_bulk > 0.2 and record["bulk_weight"] == pytest.approx(learned.template.head_bulk,
+                                                                                         abs=1e-3)
     # Without the cue the embedding alone leaves examples facing the wrong way or nearly so; with it, fewer.
     assert record["unclear_with"] < record["unclear_without"]
 
