@@ -16,7 +16,9 @@ The embedding tells up from down very surely (every character tried so far), and
 template has legs at both ends, and the embedding facing backwards often costs less). Two more things weigh:
 
 3. The outline's head/tail cue (``head_tail_cue``): a head and neck reach farther beyond the feet than a tail,
-   and a muzzle is carried higher than a tail's end. Its weight is the template's ``head_tail``, learned by
+   and a muzzle is carried higher than a tail's end; and the limb ends' bulk (``ends.end_bulk_cue``): a head
+   is thick next to its tip, a tail thin, which a cartoon's big head over its front legs and raised tail do
+   not hide. Their weights are the template's ``head_tail`` and ``head_bulk``, learned together by
    ``autorig learn`` from how far the embedding alone gets front and back wrong on its examples (0: not used).
 4. The glTF convention (+y up, facing +z), preferred by a small handicap on every other frame: a tie-breaker.
    It was ten times larger; then every corpus biped turned to face -z kept facing +z (0 of 24), since the
@@ -34,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .embed.search import MAX_EXPANSIONS
+from .ends import FEET_BAND
 
 AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too
@@ -41,7 +44,6 @@ CONVENTION_BONUS = 0.05   # penalty per axis a frame off +y up / +z front must b
 DETECTION_EXPANSIONS = 200  # A* budget per fully searched frame (its greedy embedding is used beyond it)
 FULL_SEARCHES = 3            # frames searched after the greedy ranking
 DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for the two best when they face opposite ways (below)
-FEET_BAND = 0.08  # the lowest part of the shape (fraction of its height) taken as where its feet are
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
 MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
 MID_PLANE_STEPS = 8    # grid steps on each side of the centre, before the search between the best's neighbours
@@ -54,7 +56,7 @@ AXIS_PLANE_SAMPLES = 200  # the grid alone misses a shield's mid-plane, 5 % of t
 @dataclass
 class Orientation:
     """up, front: the chosen axis specs ('y', '-z', ...); costs {'up/front': embedding penalty, plus the
-    handicap of leaving the glTF convention, minus the weighted head/tail cue} of every candidate tried;
+    handicap of leaving the glTF convention, minus the weighted head/tail cues} of every candidate tried;
     margin the runner-up's cost minus the winner's (0 when nothing was searched);
     symmetry [3] mirror error of each input axis (fraction of the size; the smallest is left-right)."""
     up: str
@@ -146,6 +148,15 @@ def head_tail_cue(vertices: np.ndarray) -> float:
     return float(np.clip((reach + tips) / height, -1.0, 1.0))
 
 
+def weighted_cues(template, graph, vertices: np.ndarray) -> float:
+    """The template's head/tail cues of a shape in a candidate frame, weighed (penalty units, positive: its
+    head is at +z): the outline's (``head_tail_cue``) and the limb ends' bulk (``ends.end_bulk_cue``).
+    graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it."""
+    from .ends import end_bulk_cue
+    outline = template.head_tail * head_tail_cue(vertices) if template.head_tail else 0.0
+    return outline + (template.head_bulk * end_bulk_cue(graph, vertices) if template.head_bulk else 0.0)
+
+
 def working_axes(up: str, front: str) -> tuple[str, str]:
     """The frame to discretize in: always the input's own axes (y, z), so that detection can mirror across
     them, and so that axes given by the user give the rig that detecting the same axes gives (the
@@ -198,9 +209,9 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     problems, prior = {}, {}
     for u, f in candidates:
         change = prepared.frame_change(u, f)
-        problems[(u, f)] = _problem(graph.moved(change.apply(graph.centers), change.scale), template)
-        prior[(u, f)] = _handicap(u, f) - (template.head_tail * head_tail_cue(change.apply(prepared.work_vertices))
-                                           if template.head_tail else 0.0)
+        moved = graph.moved(change.apply(graph.centers), change.scale)
+        problems[(u, f)] = _problem(moved, template)
+        prior[(u, f)] = _handicap(u, f) - weighted_cues(template, moved, change.apply(prepared.work_vertices))
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds, searched_long = {}, set()
     for key in sorted(costs, key=lambda k: (costs[k] + prior[k], k))[:FULL_SEARCHES]:

@@ -11,6 +11,7 @@ A template is a JSON file (see ``templates/biped.json``)::
      "helpers": [{"name": "ik_knee_L", "parent": "hips", "offset": [0.1, 0.3, 0.6]}],  # optional
      "confidence": {...},                            # optional: a calibrated model (autorig.confidence)
      "head_tail": 1.2,                               # optional: weight of the head/tail cue (autorig.orient)
+     "head_bulk": 0.8,                               # optional: weight of the limb ends' bulk cue (autorig.ends)
      "fingers": true,                                # optional: read fingers off the hands (autorig.hands)
      "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
 
@@ -96,6 +97,7 @@ class Template:
                examples' mean neck height for the stretch about the neck (``autorig.placement``), or None
     head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.orient``), in
                penalty units; 0 leaves front and back to the embedding alone
+    head_bulk  how much the limb ends' bulk cue (``autorig.ends``) weighs beside it, in penalty units
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
                to the shared anatomy (``autorig.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
@@ -116,6 +118,7 @@ class Template:
     learned_from: dict | None = field(default=None, compare=False, hash=False)
     placement: dict | None = field(default=None, compare=False, hash=False)
     head_tail: float = field(default=0.0, compare=False, hash=False)
+    head_bulk: float = field(default=0.0, compare=False, hash=False)
     conventions: dict | None = field(default=None, compare=False, hash=False)
     default_convention: str | None = field(default=None, compare=False, hash=False)
     fingers: bool = field(default=False, compare=False, hash=False)
@@ -172,8 +175,9 @@ class Template:
             if self.placement.get("offset") is not None:
                 data["placement"]["offset"] = [[round(float(v), 4) for v in row]
                                                for row in self.placement["offset"]]
-        if self.head_tail:
-            data["head_tail"] = round(float(self.head_tail), 4)
+        for key in ("head_tail", "head_bulk"):
+            if getattr(self, key):
+                data[key] = round(float(getattr(self, key)), 4)
         if self.fingers:
             data["fingers"] = True
         if self.conventions:
@@ -361,9 +365,10 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         if h["name"] in index or any(h["name"] == other.name for other in helpers):
             raise bad(f"helper {h['name']!r} has the name of another joint")
         helpers.append(Helper(h["name"], index[h["parent"]], offset))
-    head_tail = data.get("head_tail", 0.0)
-    if isinstance(head_tail, bool) or not isinstance(head_tail, (int, float)) or not 0 <= head_tail < float("inf"):
-        raise bad('"head_tail" must be a number >= 0')
+    cue_weights = {key: data.get(key, 0.0) for key in ("head_tail", "head_bulk")}
+    for key, value in cue_weights.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < float("inf"):
+            raise bad(f'"{key}" must be a number >= 0')
     fingers = data.get("fingers", False)
     if not isinstance(fingers, bool):
         raise bad('"fingers" must be true or false')
@@ -413,7 +418,8 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         confidence=confidence,
         learned_from=data.get("learned_from"),
         placement=placement,
-        head_tail=float(head_tail),
+        head_tail=float(cue_weights["head_tail"]),
+        head_bulk=float(cue_weights["head_bulk"]),
         conventions=conventions,
         default_convention=default_convention,
         fingers=fingers,

@@ -90,14 +90,16 @@ def test_a_biped_facing_away_is_turned_round():
     assert np.max(np.linalg.norm(away.joints * [-1, 1, -1] - given.joints, axis=1)) < 0.03 * height
 
 
-def test_head_tail_in_template_files():
+@pytest.mark.parametrize("key", ["head_tail", "head_bulk"])
+def test_head_tail_in_template_files(key):
     data = json.loads((ROOT / "templates" / "quadruped.json").read_text())
     template = template_from_dict(data)
-    assert template_from_dict(template.to_dict()).head_tail == pytest.approx(template.head_tail, abs=1e-4)
-    assert template_from_dict({k: v for k, v in data.items() if k != "head_tail"}).head_tail == 0
+    assert getattr(template, key) > 0
+    assert getattr(template_from_dict(template.to_dict()), key) == pytest.approx(getattr(template, key), abs=1e-4)
+    assert getattr(template_from_dict({k: v for k, v in data.items() if k != key}), key) == 0
     for bad in (-1, "high", True):
-        with pytest.raises(TemplateError, match="head_tail"):
-            template_from_dict({**data, "head_tail": bad})
+        with pytest.raises(TemplateError, match=key):
+            template_from_dict({**data, key: bad})
 
 
 @pytest.mark.skipif(not TRAIN.is_dir(), reason="the training corpus (../shared/data/train) is not present")
@@ -108,6 +110,8 @@ def test_head_tail_weight_is_learned_from_animals():
                              parts=("orientation",))
     record = learned.template.learned_from["head_tail"]
     assert learned.template.head_tail > 0.2
+    assert learned.template.head_bulk > 0.2 and record["bulk_weight"] == pytest.approx(learned.template.head_bulk,
+                                                                                         abs=1e-3)
     # Without the cue the embedding alone leaves examples facing the wrong way or nearly so; with it, fewer.
     assert record["unclear_with"] < record["unclear_without"]
 

@@ -6,7 +6,7 @@
               -> features    mirror pairs, feet, fat joints (``proportions``)
               -> discretize  each example's sphere graph, in its own frame and facing the wrong ways
               -> Γ           max-margin penalty weights (``gamma``)
-              -> head/tail   how much orientation detection weighs the outline's head/tail cue (``head_tail``)
+              -> head/tail   how much orientation detection weighs the head/tail cues (``head_tail``, ``head_bulk``)
               -> legs        where leg joints sit on the legs the mesh shows (``legs``, four-legged templates)
               -> confidence  a calibrated model, on rigs of held-out folds, of the examples as they are and
                              re-proportioned (``calibrate``, ``augment``)
@@ -89,10 +89,11 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
     head_tail = {}
     if "orientation" in parts:
         from .head_tail import learn_head_tail
-        weight, head_tail = learn_head_tail(settings, cues, template)
-        template = replace(template, head_tail=weight)
-        say(f"head/tail cue weight {weight:.2f}: examples whose own frame does not win clearly "
-            f"{head_tail.get('unclear_without')} without it, {head_tail.get('unclear_with')} with it")
+        weights, head_tail = learn_head_tail(settings, cues, template)
+        template = replace(template, **weights)
+        say(f"head/tail cue weights {weights['head_tail']:.2f} (outline), {weights['head_bulk']:.2f} (ends' bulk): "
+            f"examples whose own frame does not win clearly {head_tail.get('unclear_without')} without them, "
+            f"{head_tail.get('unclear_with')} with them")
     legs = {}
     if "legs" in parts:
         from .legs import learn_legs

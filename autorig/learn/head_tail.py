@@ -1,12 +1,14 @@
-"""How much orientation detection should trust the outline's head/tail cue, learned from the examples.
+"""How much orientation detection should trust the head/tail cues, learned from the examples.
 
 Detection (``autorig.orient``) ranks candidate frames by embedding penalty plus a prior: the glTF convention's
-handicap minus ``head_tail`` times the outline's cue (``orient.head_tail_cue``). For a four-legged template the
-embedding facing backwards often costs less than the right one, so front and back are the cue's to tell; for a
-biped the embedding tells them apart and the cue (meant for a head on a neck) is noise. The weight is learned
-from exactly that: for every example, every frame detection weighs against its own must lose by a margin,
+handicap minus the weighted cues (``orient.weighted_cues``): ``head_tail`` times the outline's cue
+(``orient.head_tail_cue``) and ``head_bulk`` times the limb ends' bulk (``ends.end_bulk_cue``). For a
+four-legged template the embedding facing backwards often costs less than the right one, so front and back are
+the cues' to tell; for a biped the embedding tells them apart and the cues (meant for a head on a neck, on a
+four-legged body) are noise. The weights are learned from exactly that: for every example, every frame detection
+weighs against its own must lose by a margin,
 
-    (cost(F) - w * cue(F)) - (cost(own) - w * cue(own)) >= MARGIN,
+    (cost(F) - w . cues(F)) - (cost(own) - w . cues(own)) >= MARGIN,
 
 where cost is the penalty of the embedding detection would find in that frame (searched long facing backwards,
 as detection searches its two best frames). The convention's handicap is
@@ -19,20 +21,25 @@ import numpy as np
 
 MARGIN = 1.0       # penalty units a wrong frame must lose by (group cross-validation over the corpus
                    # animals: at 0.5 one of 64 turned animals came out reversed, at 1.0 none)
-PULL = 0.01        # pull of w towards 0, per unit of w², against the mean squared violation
-MAX_WEIGHT = 5.0   # the cue is clipped to [-1, 1]; beyond this it would outweigh any embedding
+PULL = 0.01        # pull of each weight towards 0, per unit of its square, against the mean squared violation
+MAX_WEIGHT = 5.0   # the cues are in [-1, 1]; beyond this one would outweigh any embedding
+CUES = ("head_tail", "head_bulk")   # the template's weights, in the order of the cue columns
 
 
-def learn_head_tail(settings, cues, template) -> tuple[float, dict]:
-    """(w, record) for ``template`` from the examples' ``settings`` (``gamma.Setting``, every frame of every
-    example) and the head/tail cue [len(settings)] of each. The record counts the examples whose own frame
-    does not win clearly (by MARGIN) without the cue and with it."""
-    from scipy.optimize import minimize_scalar
+def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
+    """({template field: weight} of the cues in ``CUES``, record) for ``template`` from the examples'
+    ``settings`` (``gamma.Setting``, every frame of every example) and the outline's head/tail cue
+    [len(settings)] of each (the bulk cue is read off each setting's graph here). The record counts the
+    examples whose own frame does not win clearly (by MARGIN) without the cues and with them."""
+    from scipy.optimize import minimize
 
+    from ..ends import end_bulk_cue
     from ..orient import DECISION_EXPANSIONS, DETECTION_EXPANSIONS, _embedding_cost, _problem
     # Facing backwards is what detection compares on a long search; the other frames it ranks on a short one.
     costs = np.array([_embedding_cost(_problem(s.graph, template), DECISION_EXPANSIONS if s.frame in ("own", "back")
                                       else DETECTION_EXPANSIONS)[0] for s in settings])
+    values = np.c_[np.asarray(cues, dtype=float),
+                   [end_bulk_cue(s.graph, s.field.surface_vertices) for s in settings]]   # [N, len(CUES)]
     own = {s.example: n for n, s in enumerate(settings) if s.true_frame and np.isfinite(costs[n])}
     gaps, cue_gaps, examples = [], [], []
     for n, s in enumerate(settings):
@@ -40,21 +47,26 @@ def learn_head_tail(settings, cues, template) -> tuple[float, dict]:
             continue
         o = own[s.example]
         gaps.append(costs[n] - costs[o])
-        cue_gaps.append(cues[o] - cues[n])
+        cue_gaps.append(values[o] - values[n])
         examples.append(s.example)
     if not gaps:
-        return 0.0, {"skipped": "no frames to compare"}
+        return {key: 0.0 for key in CUES}, {"skipped": "no frames to compare"}
     gaps, cue_gaps, examples = np.array(gaps), np.array(cue_gaps), np.array(examples)
     _, inverse, counts = np.unique(examples, return_inverse=True, return_counts=True)
     share = 1.0 / (counts[inverse] * len(counts))    # every example counts the same, however many frames
 
     def objective(w):
-        return float(share @ np.maximum(MARGIN - gaps - w * cue_gaps, 0.0) ** 2) + PULL * w * w
+        violation = np.maximum(MARGIN - gaps - cue_gaps @ w, 0.0)
+        gradient = -2 * (share * violation) @ cue_gaps + 2 * PULL * w
+        return float(share @ violation ** 2) + PULL * float(w @ w), gradient
 
-    weight = float(minimize_scalar(objective, bounds=(0.0, MAX_WEIGHT), method="bounded").x)
+    found = minimize(objective, np.zeros(len(CUES)), jac=True, method="L-BFGS-B",
+                     bounds=[(0.0, MAX_WEIGHT)] * len(CUES))
+    weights = np.clip(found.x, 0.0, MAX_WEIGHT)
 
     def unclear(w):
-        return int(len({int(e) for e in examples[gaps + w * cue_gaps < MARGIN]}))
+        return int(len({int(e) for e in examples[gaps + cue_gaps @ w < MARGIN]}))
 
-    return weight, {"weight": round(weight, 4), "examples": len(own),
-                    "unclear_without": unclear(0.0), "unclear_with": unclear(weight)}
+    return ({key: float(w) for key, w in zip(CUES, weights)},
+            {"weight": round(float(weights[0]), 4), "bulk_weight": round(float(weights[1]), 4),
+             "examples": len(own), "unclear_without": unclear(np.zeros(len(CUES))), "unclear_with": unclear(weights)})

@@ -1,0 +1,61 @@
+"""The limb ends' bulk cue (``autorig.ends``) on a generated cartoon animal that the outline's cue reads the wrong
+way round: a big head straight over the front legs and a long raised tail (``benchmarks/quadruped_axes.py``'s
+generator, one animal with its proportions written out here)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import autorig
+from autorig.ends import end_bulk_cue
+from autorig.mesh import prepare
+from autorig.orient import head_tail_cue
+from autorig.pipeline import discretize
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from quadruped_axes import build  # noqa: E402
+
+CARTOON = dict(girth=0.35, legs=0.2, neck=0.05, neck_rise=80.0, head=0.45, snout=0.1, ears="round", tail="raised",
+               tail_length=1.2, head_back=0.3, elbow_back=0.1, wrist_forward=0.05, knee_forward=0.15,
+               hock_back=0.2, chest=1.1, leg_thickness=0.35)
+
+
+@pytest.fixture(scope="module")
+def cartoon():
+    vertices, faces, head, rump = build(CARTOON, resolution=56)
+    return vertices, faces, head
+
+
+def _cues(vertices, faces, up="y", front="z"):
+    """(outline cue, bulk cue) of a mesh in the frame (up, front)."""
+    prepared = prepare(vertices, faces, up, front)
+    _, graph = discretize(prepared)
+    return head_tail_cue(prepared.work_vertices), end_bulk_cue(graph, prepared.work_vertices)
+
+
+def test_the_bulk_cue_finds_the_cartoon_head_the_outline_misses(cartoon):
+    vertices, faces, _ = cartoon
+    outline, bulk = _cues(vertices, faces)
+    assert outline < 0          # the raised tail reaches farther and ends higher than the head
+    assert bulk > 0.2
+
+
+def test_the_bulk_cue_turns_with_the_shape(cartoon):
+    vertices, faces, _ = cartoon
+    bulk = _cues(vertices, faces)[1]
+    assert _cues(vertices, faces, "y", "-z")[1] == pytest.approx(-bulk)
+    # The same shape in a file facing -z, read in its own right frame, says the same.
+    assert _cues(vertices * [-1, 1, -1], faces, "y", "-z")[1] == pytest.approx(bulk, abs=0.05)
+
+
+def test_a_cartoon_facing_away_is_rigged_head_forward(cartoon):
+    vertices, faces, head = cartoon
+    rig = autorig.rig((vertices * [-1, 1, -1], faces), "quadruped")
+    assert (rig.info["up"], rig.info["front"]) == ("y", "-z")
+    joint = rig.joints[rig.names.index("head")] * [-1, 1, -1]
+    assert np.linalg.norm(joint - head) < 0.5 * CARTOON["head"] + 0.2
