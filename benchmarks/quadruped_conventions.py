@@ -25,7 +25,9 @@ are. And since a line can only be so close to joints the artists put at differen
 table gives, for each trunk joint, how deep in the body each artist put it: the fraction of the body's depth at
 that point (0 at the belly, 1 at the back: the lowest and highest surface crossings of the vertical line through
 the joint), and the least worst error, as a fraction of the height, of any rule that puts the joint at one
-fraction of the depth for every species (the best such fraction chosen with hindsight).
+fraction of the depth for every species (the best such fraction chosen with hindsight). Last, the artists'
+joints that lie outside their own animal's mesh (by more than ``OUTSIDE`` of the height): a skeleton shared by
+several meshes of a family and not fitted to this one.
 """
 from __future__ import annotations
 
@@ -38,6 +40,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+# An artist's joint this far outside the mesh (a fraction of the height) is not on the animal's body.
+OUTSIDE = 0.01
 PAWS = (("back_left_paw", "back_right_paw"), ("front_left_paw", "front_right_paw"))
 
 
@@ -117,6 +121,15 @@ def trunk_depths(every: list[dict]) -> dict[str, list[tuple[float, float]]]:
     return out
 
 
+def outside_joints(animal: dict) -> dict[str, float]:
+    """{joint key: how far outside ``animal``'s mesh, as a fraction of the height} of its artist's joints more
+    than ``OUTSIDE`` outside (the mesh's signed distance, ``autorig.distance.SurfaceQuery``)."""
+    from autorig.distance import SurfaceQuery
+    keys = list(animal["joints"])
+    depth = SurfaceQuery(animal["vertices"], animal["faces"]).closest(np.array([animal["joints"][k] for k in keys]))[0]
+    return {k: float(-d) / animal["height"] for k, d in zip(keys, depth) if -d > OUTSIDE * animal["height"]}
+
+
 def best_fraction(rows: list[tuple[float, float]]) -> tuple[float, float]:
     """(fraction, worst error as a fraction of the height) of the one depth fraction that minimises the worst
     error over ``rows`` [(fraction, depth / height)]."""
@@ -194,6 +207,11 @@ def main(argv=None) -> int:
     behind, ahead = min(along, key=along.get), max(along, key=along.get)
     print(f"\nthe hips joint along the body from the hind legs' roots (% of the height, + forward): "
           f"{along[behind]:+.1f} ({behind}) to {along[ahead]:+.1f} ({ahead}), median {np.median(list(along.values())):+.1f}")
+    print(f"\nthe artists' joints more than {100 * OUTSIDE:.0f} % of the height outside their own mesh:")
+    for animal in every:
+        out = outside_joints(animal)
+        if out:
+            print(f"  {animal['name']:22s} " + ", ".join(f"{k} {100 * v:.1f} %" for k, v in sorted(out.items())))
     return 0
 
 

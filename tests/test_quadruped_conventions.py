@@ -30,3 +30,12 @@ def test_one_fraction_is_the_middle_of_the_spread_weighted_by_depth():
     # A deeper body weighs more: the fraction moves toward its joint.
     fraction, _ = best_fraction([(0.2, 0.8), (0.8, 0.4)])
     assert fraction < 0.45
+
+
+def test_an_artists_joint_outside_the_mesh_is_named():
+    from quadruped_conventions import outside_joints
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    animal = {"vertices": np.asarray(box.vertices), "faces": np.asarray(box.faces), "height": 2.0,
+              "joints": {"hips": np.zeros(3), "paw": np.array([0.0, 0.0, 1.6]), "shoulder": np.array([0.0, 0.0, 1.51])}}
+    out = outside_joints(animal)          # the box ends at z = 1.5: the paw 0.1 outside, the shoulder 0.01
+    assert list(out) == ["paw"] and out["paw"] == pytest.approx(0.05, abs=1e-6)
