@@ -206,6 +206,7 @@ def main(argv=None) -> int:
                                                     "(shared/data/train: those with a quadruped map)")
     args = parser.parse_args(argv)
     import autorig
+    from autorig.exchange.obj import write_obj
     families = args.families.split(",")
     if any(f not in FAMILIES for f in families):
         print(f"quadruped_axes: families are {', '.join(FAMILIES)}", file=sys.stderr)
@@ -217,7 +218,7 @@ def main(argv=None) -> int:
         for animal in family(fam, args.per_family, args.seed):
             if args.save:
                 args.save.mkdir(parents=True, exist_ok=True)
-                _write_obj(args.save / f"{animal.name}.obj", animal.vertices, animal.faces)
+                write_obj(animal.vertices, animal.faces, args.save / f"{animal.name}.obj")
             cells = []
             for turn_name, turn, axes in TURNS:
                 start = time.perf_counter()
@@ -295,12 +296,6 @@ def _corpus_animals(train: Path):
     for folder in sorted(p for p in train.iterdir() if (p / "joints.json").is_file()):
         if "quadruped_map" in json.loads((folder / "joints.json").read_text()):
             yield (folder.name, *load_mesh(folder / "mesh.obj"))
-
-
-def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
-    from autorig.exchange.files import write_file_atomic
-    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
-    write_file_atomic(path, ("\n".join(lines) + "\n").encode())
 
 
 if __name__ == "__main__":

@@ -91,19 +91,14 @@ def convention_errors(animal: dict, examples: list[dict]) -> dict[str, float]:
 
 def column(vertices: np.ndarray, faces: np.ndarray, x: float, z: float) -> tuple[float, float] | None:
     """(lowest, highest) height where the vertical line through (x, z) crosses the mesh (vertices [V, 3],
-    faces [F, 3]), or None if it misses."""
-    tri = vertices[faces]                                            # [F, 3, 3]
-    a, b, c = (tri[:, k][:, [0, 2]] for k in range(3))               # [F, 2] each, the (x, z) plane
-    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
-    ok = np.abs(det) > 1e-15
-    px, pz = x - a[:, 0], z - a[:, 1]
-    u = np.where(ok, (px * (c[:, 1] - a[:, 1]) - pz * (c[:, 0] - a[:, 0])) / np.where(ok, det, 1.0), -1.0)
-    v = np.where(ok, (pz * (b[:, 0] - a[:, 0]) - px * (b[:, 1] - a[:, 1])) / np.where(ok, det, 1.0), -1.0)
-    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
-    if not hit.any():
+    faces [F, 3]), or None if it misses: the legs stage's crossings (``legs.highest_crossings``), the lowest
+    as the highest of the mesh upside down."""
+    from autorig.legs import highest_crossings
+    point = np.array([[x, z]], float)
+    high = float(highest_crossings(vertices, faces, point)[0])
+    if not np.isfinite(high):
         return None
-    y = tri[hit, 0, 1] + u[hit] * (tri[hit, 1, 1] - tri[hit, 0, 1]) + v[hit] * (tri[hit, 2, 1] - tri[hit, 0, 1])
-    return float(y.min()), float(y.max())
+    return -float(highest_crossings(vertices * [1.0, -1.0, 1.0], faces, point)[0]), high
 
 
 def trunk_depths(every: list[dict]) -> dict[str, list[tuple[float, float]]]:
