@@ -296,12 +296,12 @@ def _load(mesh, options) -> tuple[np.ndarray, np.ndarray, str, object]:
     """(vertices [V, 3], faces [F, 3], the name errors use, the input's ``Look`` or None) of a mesh path or
     (vertices, faces) pair, checked, with the ``options``' limits."""
     from .input.limits import check_faces
-    from .input.look import load_look
-    from .input.mesh import check_mesh, load_mesh
+    from .input.mesh import check_mesh
+    from .input.read import read_input
 
     if isinstance(mesh, (str, Path)):
-        vertices, faces = load_mesh(mesh, options.max_faces, options.allow_outside_paths)
-        return vertices, faces, Path(mesh).name, load_look(mesh, faces, options.allow_outside_paths)
+        vertices, faces, look = read_input(mesh, options.max_faces, options.allow_outside_paths)
+        return vertices, faces, Path(mesh).name, look
     vertices, faces = check_mesh(*mesh, "mesh")
     check_faces(len(faces), options.max_faces, "mesh")
     return vertices, faces, "mesh", None

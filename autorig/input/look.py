@@ -28,11 +28,14 @@ from ..errors import InputError
 from .mesh_files import obj_text
 from ..result import Image, Look
 
-__all__ = ["load_look", "material_files"]
+__all__ = ["load_look", "matching_look", "material_files"]
 
 
-def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) -> Look | None:
+def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False, data: bytes | None = None
+              ) -> Look | None:
     """The look of the mesh file ``path`` whose triangles ``load_mesh`` read as ``faces`` [F, 3], or None.
+    ``data``: an OBJ's bytes, when the caller has read them already (``autorig.input.read``: each input file is
+    read once).
 
     Raises ``InputError`` for an unreadable file; a missing, refused (``autorig.input.confine``: outside the mesh's
     folder unless ``allow_outside``) or unusable MTL or texture only leaves that part out, recorded in
@@ -46,13 +49,18 @@ def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) 
         look = read_gltf_scene(path, allow_outside)[2]
     elif suffix == ".obj":
         try:
-            look = _obj_look(path, faces, allow_outside)
+            look = _obj_look(path, faces, allow_outside, data)
         except (ValueError, IndexError):
             # Texture coordinates or normals that do not parse or point nowhere: the shape, which load_mesh
             # has checked, still rigs; the look is left out rather than guessed.
             look = None
     else:
         return None
+    return matching_look(look, faces)
+
+
+def matching_look(look: Look | None, faces: np.ndarray) -> Look | None:
+    """``look`` if its triangles are the mesh's ``faces`` [F, 3], else None."""
     if look is not None and not np.array_equal(np.asarray(look.vertex_of)[look.faces], faces):
         # Both readers triangulate the same way; if they ever disagree, a bare rig beats a wrong look.
         return None
@@ -61,11 +69,12 @@ def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) 
 
 # ------------------------------------------------------------------------------------------------------ OBJ
 
-def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool) -> Look | None:
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool, data: bytes | None) -> Look | None:
+    if data is None:
+        try:
+            data = path.read_bytes()
+        except OSError as e:
+            raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     # A bare OBJ (most scans) is passed over at the speed of a byte search, with no decoding.
     if not any(_contains(data, key) for key in (b"vt ", b"vn ", b"usemtl", b"mtllib")) and not _has_vertex_colors(data):
         return None

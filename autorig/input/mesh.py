@@ -70,14 +70,7 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
     suffix = path.suffix.lower()
     check_file_size(path)
     if suffix in (".obj", ".off"):
-        try:
-            data = path.read_bytes()
-        except OSError as e:
-            raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
-        if suffix == ".obj":  # every polygon line is one triangle or more
-            check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
-        text = as_text(data, path, FORMATS[suffix])
-        vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+        vertices, faces = parse_mesh_bytes(read_file(path), path, max_faces)
     elif suffix in (".glb", ".gltf"):
         from ..exchange.gltf import read_gltf_scene
         vertices, faces, _ = read_gltf_scene(path, allow_outside, max_faces, look=False)
@@ -86,6 +79,24 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
         vertices, faces = load_with_trimesh(path, suffix)
     check_faces(len(faces), max_faces, str(path))
     return check_mesh(vertices, faces, name=str(path))
+
+
+def read_file(path: Path) -> bytes:
+    """The bytes of the mesh file ``path``; ``InputError`` if it cannot be read."""
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+
+
+def parse_mesh_bytes(data: bytes, path: Path, max_faces: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of an OBJ or OFF file's bytes ``data`` (``path`` names the file and its format), not
+    yet checked by ``check_mesh``."""
+    suffix = path.suffix.lower()
+    if suffix == ".obj":  # every polygon line is one triangle or more
+        check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
+    text = as_text(data, path, FORMATS[suffix])
+    return parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
 
 
 def check_mesh_path(path: str | Path) -> Path:
