@@ -3,8 +3,9 @@ quick start rigs, the README stays a front page, and the site builds with ``mkdo
 
 The examples run in one folder holding the files they name: ``hero.obj`` and ``upload.obj`` (the project's
 mannequin), ``dog.obj`` and ``dog.ply``, ``scan.obj`` (the mannequin turned Z-up, facing -y), ``joints.json``,
-``hero.glb``, ``my_rig.glb``, ``walk.bvh``, a folder ``assets/`` to rig and ``studio/`` of rigged characters to
-learn from.
+``hero.glb``, ``my_rig.glb``, ``man.rigged.glb``, ``studio_rig.glb``, ``walk.bvh`` and ``clip.bvh`` (121 frames),
+``map.json``, ``pig.obj`` with its ``pig.mtl``, ``octopus.obj`` and ``spider.obj`` (stars of 8 and 6 arms), folders
+``assets/``, ``creatures/`` and ``crowd/`` to rig and ``studio/`` of rigged characters to learn from.
 ``autorig`` there is this checkout's (``python -m autorig.cli``), whatever is installed.
 """
 from __future__ import annotations
@@ -44,6 +45,8 @@ EXAMPLES = _examples()
 def workspace(tmp_path_factory) -> tuple[Path, dict]:
     import autorig
     from autorig.exchange import write_rig
+    from autorig.exchange.obj import write_obj
+    from autorig.extract.shapes import star
     from autorig.samples import mannequin
 
     folder = tmp_path_factory.mktemp("guide")
@@ -60,8 +63,24 @@ def workspace(tmp_path_factory) -> tuple[Path, dict]:
     rig = autorig.rig(folder / "hero.obj")
     write_rig(rig, folder / "hero.glb", "glb")
     write_rig(rig, folder / "my_rig.glb", "glb")
-    turn = {"left_shoulder": (0.0, 0.0, -40.0), "right_elbow": (0.0, -50.0, 0.0)}
-    (folder / "walk.bvh").write_text(mannequin_bvh([{}, turn, {}], [(0, 0, 0), (0, 0, 0.05), (0, 0, 0.1)]))
+    # 121 frames (--frame 120): the left arm lowered and raised, walking forward 2 cm a frame.
+    frames = [{"left_shoulder": (0.0, 0.0, -40.0 * np.sin(k / 10)), "right_elbow": (0.0, -30.0, 0.0)}
+              for k in range(121)]
+    (folder / "walk.bvh").write_text(mannequin_bvh(frames, [(0, 0, 0.02 * k) for k in range(121)]))
+    shutil.copy(folder / "walk.bvh", folder / "clip.bvh")
+    (folder / "map.json").write_text('{"left_elbow": null}\n')
+    shutil.copy(folder / "hero.glb", folder / "man.rigged.glb")
+    shutil.copy(folder / "hero.glb", folder / "studio_rig.glb")
+    # A textured-looking four-legged pig (the dog with a material), and two creatures no template fits.
+    (folder / "pig.mtl").write_text("newmtl skin\nKd 0.9 0.6 0.6\n")
+    (folder / "pig.obj").write_text("mtllib pig.mtl\nusemtl skin\n" + (folder / "dog.obj").read_text())
+    for name, arms in (("octopus", 8), ("spider", 6)):
+        shape = star(arms, resolution=40)
+        write_obj(shape.vertices, shape.faces, folder / f"{name}.obj")
+    (folder / "creatures").mkdir()
+    shutil.copy(folder / "octopus.obj", folder / "creatures" / "octopus.obj")
+    (folder / "crowd").mkdir()
+    shutil.copy(folder / "hero.obj", folder / "crowd" / "extra.obj")
     (folder / "assets" / "sub").mkdir(parents=True)
     shutil.copy(folder / "hero.obj", folder / "assets" / "hero.obj")
     shutil.copy(folder / "dog.obj", folder / "assets" / "sub" / "dog.obj")
