@@ -1,0 +1,310 @@
+#!/usr/bin/env python3
+"""How a rig deforms: ground-truth characters posed with the artist's rig and with autorig's, side by side.
+
+    python benchmarks/deformation.py [--shared ../shared] [--corpus ../corpus] [--per-source N] [--frames K]
+                                     [--only NAME ...] [--no-tilt]
+
+For each ground-truth character (``shared/data/rigged/*`` with a template map, the training corpus
+``shared/data/train/*`` and the corpus ``--corpus`` by source, the first ``--per-source`` of each in name
+order) autorig rigs the mesh (``autorig.pipeline.rig`` with the ground truth's axes, so that orientation is not
+what is judged) and both rigs are posed by the same motions, joints matched by template name (the artist's
+joints through the example's ``biped_map`` / ``quadruped_map``, as ``autorig.learn`` reads them):
+
+* single-joint bends: every limb joint (shoulders, elbows, hips, knees, neck, spine; a quadruped's legs)
+  turned 60 degrees about the character's left axis (a shoulder about its front axis: the arm raised), the
+  joint's whole subtree following rigidly, each rig about its own joint;
+* the shared BVH clips (bipeds), ``K`` frames of each spread evenly, retargeted onto both rigs by
+  ``autorig.pose.retarget``.
+
+Posed vertices are compared as a fraction of the height: mean, 95th percentile and worst over vertices and
+poses. Then checks that need no artist, for both rigs:
+
+* ``far``: pieces (connected parts after welding, other than the largest) no larger than a tenth of the height
+  whose dominant joint is neither the owner of the bone nearest the piece's centre nor its parent or child;
+* ``tear``: the worst stretch of an edge in any pose (posed length minus rest length), % of the height;
+* ``vol``: volume lost at the elbow and knee bends (signed volume of the posed mesh against rest, % of the
+  volume of the whole mesh; a limb's collapse shows as a loss);
+* ``tilt``: with ``--tilt`` (default on), the shared meshes walking (``delfem2_walk.bvh``): the head's tilt
+  from upright (the angle between the posed and rest up vector carried by the head joint's rotation), the
+  worst over the frames where the clip's own head stays within 10 degrees.
+
+Prints one line per character and one per source (mean of the means, mean of the 95th percentiles, the worst).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from autorig.exchange.bvh import read_bvh  # noqa: E402
+from autorig.pipeline import RigOptions, rig  # noqa: E402
+from autorig.pose import retarget, skin  # noqa: E402
+from autorig.result import Rig  # noqa: E402
+
+BEND_DEGREES = 60.0
+BENDS = {"biped": ["left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_hip", "right_hip",
+                   "left_knee", "right_knee", "neck", "spine"],
+         "quadruped": ["front_left_shoulder", "front_left_elbow", "back_left_hip", "back_left_knee", "neck",
+                       "tail_base"]}
+CLIPS = ["delfem2_walk.bvh", "assimp_Boxing_Toes.bvh", "assimp_01_01.bvh"]
+PIECE_SIZE = 0.1     # pieces no larger than this fraction of the height are checked for far bones
+TILT_LIMIT = 10.0    # degrees: frames where the clip's own head tilts less than this
+
+
+def load_score(shared: Path):
+    spec = importlib.util.spec_from_file_location("gt_score", shared / "tools" / "score.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def characters(shared: Path, corpus: Path | None, per_source: int, only: list[str]):
+    """[(source, directory)] of the ground-truth characters, ``per_source`` of each source."""
+    found = [("shared", d) for d in sorted((shared / "data" / "rigged").iterdir())]
+    folders = [shared / "data" / "train"] + ([corpus] if corpus and corpus.is_dir() else [])
+    for folder in folders:
+        found += [(d.name.split("_")[0].split("-")[0], d) for d in sorted(folder.iterdir())]
+    found = [(s, d) for s, d in found if (d / "joints.json").is_file() and (d / "weights.npz").is_file()]
+    if only:
+        return [(s, d) for s, d in found if d.name in only]
+    taken, out = {}, []
+    for source, d in found:
+        if taken.get(source, 0) < per_source:
+            taken[source] = taken.get(source, 0) + 1
+            out.append((source, d))
+    return out
+
+
+def artist_rig(gt) -> Rig:
+    """The ground truth as a ``Rig`` whose mapped joints carry their template names."""
+    key_of = {n: k for k, n in gt["map"].items() if n is not None}
+    names = [key_of.get(n, f"artist:{n}") for n in gt["joint_names"]]
+    return Rig(names=names, parents=np.asarray(gt["joint_parents"]), joints=np.asarray(gt["joint_pos"], float),
+               weights=np.asarray(gt["W"], float), vertices=gt["V"], faces=gt["F"], template="artist")
+
+
+def axis_name(v) -> str:
+    k = int(np.argmax(np.abs(v)))
+    return ("-" if v[k] < 0 else "") + "xyz"[k]
+
+
+def subtree(parents, j) -> np.ndarray:
+    inside = np.zeros(len(parents), bool)
+    inside[j] = True
+    for c in range(len(parents)):
+        if parents[c] >= 0 and inside[parents[c]]:
+            inside[c] = True
+    return inside
+
+
+def rotation(axis, degrees) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+    return Rotation.from_rotvec(np.radians(degrees) * np.asarray(axis, float)).as_matrix()
+
+
+def bend(r: Rig, name: str, R: np.ndarray):
+    """(rotations [J, 3, 3], positions [J, 3]) of ``r`` with joint ``name``'s subtree turned by R about it."""
+    J = len(r.names)
+    rotations, positions = np.tile(np.eye(3), (J, 1, 1)), np.array(r.joints, float)
+    j = r.names.index(name)
+    moved = subtree(np.asarray(r.parents), j)
+    rotations[moved] = R
+    positions[moved] = (positions[moved] - positions[j]) @ R.T + positions[j]
+    return rotations, positions
+
+
+def poses(gt, kind, rigs, motion_dir: Path, frames: int):
+    """Yield (label, [posed vertices per rig]) for every bend and clip frame both rigs can take."""
+    up, front, left = gt["up"], gt["front"], gt["left"]
+    for name in BENDS[kind]:
+        if not all(name in r.names for r in rigs):
+            continue
+        axis = front if name.endswith("shoulder") else left
+        sign = -1.0 if name.startswith("left") and name.endswith("shoulder") else 1.0
+        R = rotation(sign * axis, BEND_DEGREES)
+        yield f"bend {name}", [skin(r, *bend(r, name, R)) for r in rigs]
+    if kind != "biped":
+        return
+    for clip in CLIPS:
+        path = motion_dir / clip
+        if not path.is_file():
+            continue
+        motion = read_bvh(path)
+        try:
+            anims = [retarget(r, motion, up=axis_name(up), front=axis_name(front)) for r in rigs]
+        except Exception as e:           # a rig the clip cannot drive (no hips) is reported, not fatal
+            print(f"    {clip}: not retargeted ({e})", file=sys.stderr)
+            continue
+        for t in np.linspace(0, len(motion.frames) - 1, frames).round().astype(int):
+            yield f"{clip}@{t}", [skin(r, a.rotations[t], a.positions[t]) for r, a in zip(rigs, anims)]
+
+
+def pieces(V, F):
+    """(labels [V] of the connected parts, after welding by position, body = the part of most vertices)."""
+    _, first, weld = np.unique(np.round(V, 9), axis=0, return_index=True, return_inverse=True)
+    weld = weld.reshape(-1)
+    Fw = weld[F]
+    n = len(first)
+    adj = sp.coo_matrix((np.ones(Fw.size), (Fw.ravel(), np.roll(Fw, 1, axis=1).ravel())), shape=(n, n))
+    _, label = connected_components(adj, directed=False)
+    label = label[weld]
+    body = int(np.argmax(np.bincount(label)))
+    return label, body
+
+
+def far_pieces(r: Rig, height: float, label, body) -> tuple[int, int]:
+    """(pieces no larger than PIECE_SIZE of the height, of them those on a far joint; see the module doc)."""
+    from autorig.attach import segment_distances
+    V, W, parents = np.asarray(r.vertices, float), np.asarray(r.weights, float), np.asarray(r.parents)
+    P = np.asarray(r.joints, float)
+    bones = np.flatnonzero(parents >= 0)
+    heats = W.sum(axis=0) > 0
+    bones = bones[heats[parents[bones]]]           # bones whose owner carries weight somewhere
+    small = far = 0
+    for piece in np.unique(label):
+        idx = np.flatnonzero(label == piece)
+        if piece == body or np.linalg.norm(np.ptp(V[idx], axis=0)) > PIECE_SIZE * height:
+            continue
+        small += 1
+        dominant = int(np.argmax(W[idx].sum(axis=0)))
+        centre = V[idx].mean(axis=0, keepdims=True)
+        under = int(parents[bones[np.argmin(segment_distances(centre, P[parents[bones]], P[bones])[0])]])
+        near = {under, int(parents[under])} | set(np.flatnonzero(parents == under).tolist())
+        far += dominant not in near
+    return small, far
+
+
+def volume(V, F) -> float:
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+def score_character(score, source, gt_dir: Path, motion_dir: Path, frames: int):
+    gt = score.load_gt(str(gt_dir))
+    if gt["kind"] is None or gt["up"] is None or gt["front"] is None:
+        return None
+    start = time.perf_counter()
+    ours = rig((gt["V"], gt["F"]), gt["kind"], RigOptions(up=axis_name(gt["up"]), front=axis_name(gt["front"])))
+    seconds = time.perf_counter() - start
+    artist = artist_rig(gt)
+    H = gt["height"]
+    F = np.asarray(gt["F"])
+    rest_edges = np.linalg.norm(gt["V"][F] - gt["V"][np.roll(F, 1, axis=1)], axis=2)
+    rest_volume = abs(volume(gt["V"], F)) or 1.0
+    errors, tear, vol = {"bend": [], "clip": []}, [0.0, 0.0], [0.0, 0.0]
+    for label, (posed_artist, posed_ours) in poses(gt, gt["kind"], [artist, ours], motion_dir, frames):
+        errors["bend" if label.startswith("bend") else "clip"].append(
+            np.linalg.norm(posed_artist - posed_ours, axis=1) / H)
+        for k, posed in enumerate((posed_artist, posed_ours)):
+            edges = np.linalg.norm(posed[F] - posed[np.roll(F, 1, axis=1)], axis=2)
+            tear[k] = max(tear[k], float((edges - rest_edges).max() / H))
+            if label.startswith("bend") and ("elbow" in label or "knee" in label):
+                vol[k] = max(vol[k], (rest_volume - abs(volume(posed, F))) / rest_volume)
+    label, body = pieces(gt["V"], F)
+    stats = {}
+    for kind, errs in errors.items():
+        err = np.concatenate(errs) if errs else np.full(1, np.nan)
+        stats[kind] = (100 * err.mean(), 100 * np.percentile(err, 95), 100 * err.max())
+    return {"source": source, "name": gt_dir.name, "poses": sum(map(len, errors.values())), **stats,
+            "seconds": seconds,
+            "far": [far_pieces(r, H, label, body) for r in (artist, ours)],
+            "tear": [100 * t for t in tear], "vol": [100 * v for v in vol]}
+
+
+def head_tilt(mesh, motion_path: Path, template="biped", up="auto", front="auto"):
+    """(worst head tilt of autorig's rig over the frames where the clip's head tilts less than TILT_LIMIT, the
+    worst excess of its tilt over the clip's in any frame (degrees), those frames, all frames) of ``mesh``
+    walking. A head's tilt is the angle between its bone's posed and rest directions (head -> head_end; the
+    clip's: Head -> its end site, in the clip's world rotations)."""
+    r = rig(mesh, template, RigOptions(up=up, front=front))
+    motion = read_bvh(motion_path)
+    anim = retarget(r, motion)
+    head = r.names.index("head")
+    d = r.joint("head_end") - r.joint("head")
+    d = d / np.linalg.norm(d)
+    ours = np.degrees(np.arccos(np.clip(anim.rotations[:, head] @ d @ d, -1, 1)))
+    b = motion.names.index(anim.mapping["head"])
+    kids = motion.children(b)
+    m = np.asarray(motion.end_sites[b] if b in motion.end_sites else motion.offsets[kids[0]], float)
+    m = m / np.linalg.norm(m)
+    world_r, _ = motion.world_transforms()
+    clip = np.degrees(np.arccos(np.clip(world_r[:, b] @ m @ m, -1, 1)))
+    calm = clip < TILT_LIMIT
+    return (float(ours[calm].max()) if calm.any() else float("nan")), float((ours - clip).max()), \
+        int(calm.sum()), len(calm)
+
+
+def tilt_table(shared: Path):
+    from autorig.samples import mannequin
+    walk = shared / "data" / "motion" / "delfem2_walk.bvh"
+    sample = mannequin("t")
+    cases = [("homer", shared / "data" / "meshes" / "homer.obj", {}),
+             ("ogre", shared / "data" / "meshes" / "ogre.obj", {}),
+             ("CesiumMan", shared / "data" / "rigged" / "CesiumMan" / "mesh.obj", {"front": "x", "up": "y"}),
+             ("mannequin", (sample.vertices, sample.faces), {"up": "y", "front": "z"})]
+    print(f"\nhead tilt walking (delfem2_walk.bvh): worst over the frames where the clip's head is within "
+          f"{TILT_LIMIT:.0f} deg")
+    for name, mesh, axes in cases:
+        worst, excess, calm, total = head_tilt(mesh, walk, **axes)
+        print(f"  {name:<12}{worst:>7.1f} deg   ({calm}/{total} frames); worst excess over the clip's tilt "
+              f"{excess:.1f} deg")
+
+
+def _triple(t) -> str:
+    return "/".join(f"{x:.2f}" for x in t) if np.isfinite(t[0]) else "-"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--shared", type=Path, default=ROOT.parent / "shared")
+    ap.add_argument("--corpus", type=Path, default=ROOT.parent / "corpus")
+    ap.add_argument("--per-source", type=int, default=3, help="characters per source (default 3)")
+    ap.add_argument("--frames", type=int, default=6, help="frames of each clip (default 6)")
+    ap.add_argument("--only", nargs="*", default=[], help="only these characters (folder names)")
+    ap.add_argument("--no-tilt", action="store_true", help="skip the walking head-tilt table")
+    a = ap.parse_args(argv)
+    score = load_score(a.shared)
+    rows = []
+    print("posed vertices, artist's rig against autorig's, % of the height: mean/p95/worst over the bends, "
+          "then over the clips' frames")
+    print(f"{'source':<8}{'character':<28}{'poses':>6}{'bends mean/p95/worst':>22}{'clips mean/p95/worst':>22}  "
+          f"{'far art/ours':>13}{'tear% art/ours':>15}{'vol% art/ours':>14}")
+    for source, d in characters(a.shared, a.corpus, a.per_source, a.only):
+        try:
+            row = score_character(score, source, d, a.shared / "data" / "motion", a.frames)
+        except Exception as e:            # one character that fails to rig is reported, the rest go on
+            print(f"{source:<11}{d.name:<34} failed: {type(e).__name__}: {e}")
+            continue
+        if row is None:
+            continue
+        rows.append(row)
+        far = "/".join(f"{f}" for _, f in row["far"]) + f" of {row['far'][0][0]}"
+        print(f"{source:<8}{row['name'][:27]:<28}{row['poses']:>6}{_triple(row['bend']):>22}"
+              f"{_triple(row['clip']):>22}  {far:>13}{row['tear'][0]:>8.1f}/{row['tear'][1]:<6.1f}"
+              f"{row['vol'][0]:>7.1f}/{row['vol'][1]:<6.1f}", flush=True)
+    print("\nper source: mean of the means / mean of the 95th percentiles / worst (% of the height); far pieces")
+    for source in dict.fromkeys(r["source"] for r in rows):
+        sel = [r for r in rows if r["source"] == source]
+        far = [sum(r["far"][k][1] for r in sel) for k in (0, 1)]
+        summary = {kind: (np.nanmean([r[kind][0] for r in sel]), np.nanmean([r[kind][1] for r in sel]),
+                          np.nanmax([r[kind][2] for r in sel])) if any(np.isfinite(r[kind][0]) for r in sel)
+                   else (np.nan,) * 3 for kind in ("bend", "clip")}
+        print(f"  {source:<10}{len(sel):>3} chars  bends {_triple(summary['bend'])}  clips {_triple(summary['clip'])}"
+              f"  far pieces artist {far[0]} ours {far[1]} of {sum(r['far'][0][0] for r in sel)}")
+    if not a.no_tilt:
+        tilt_table(a.shared)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
