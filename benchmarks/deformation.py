@@ -86,11 +86,28 @@ def characters(shared: Path, corpus: Path | None, per_source: int, only: list[st
 
 
 def artist_rig(gt) -> Rig:
-    """The ground truth as a ``Rig`` whose mapped joints carry their template names."""
+    """The ground truth as a ``Rig`` whose mapped joints carry their template names, rooted at its hips (or
+    the template's root): joints above it (a MakeHuman "Root" on the ground) are dropped, their weights
+    given to it, so that a clip's hips drive it as they drive autorig's rig."""
     key_of = {n: k for k, n in gt["map"].items() if n is not None}
     names = [key_of.get(n, f"artist:{n}") for n in gt["joint_names"]]
-    return Rig(names=names, parents=np.asarray(gt["joint_parents"]), joints=np.asarray(gt["joint_pos"], float),
-               weights=np.asarray(gt["W"], float), vertices=gt["V"], faces=gt["F"], template="artist")
+    parents = np.asarray(gt["joint_parents"])
+    W = np.asarray(gt["W"], float)
+    root_key = "hips" if gt["kind"] == "biped" else next(iter(gt["map"]))
+    root = names.index(root_key) if root_key in names else int(np.flatnonzero(parents < 0)[0])
+    above = set()
+    p = parents[root]
+    while p >= 0:
+        above.add(int(p))
+        p = parents[p]
+    order = [root] + [j for j in range(len(names)) if j != root and j not in above]
+    new = {j: k for k, j in enumerate(order)}
+    new_parents = np.array([-1] + [new[parents[j]] if parents[j] in new else 0 for j in order[1:]])
+    weights = W[:, order]
+    weights[:, 0] += W[:, sorted(above)].sum(axis=1) if above else 0.0
+    return Rig(names=[names[j] for j in order], parents=new_parents,
+               joints=np.asarray(gt["joint_pos"], float)[order], weights=weights, vertices=gt["V"], faces=gt["F"],
+               template="artist")
 
 
 def axis_name(v) -> str:
@@ -260,6 +277,64 @@ def tilt_table(shared: Path):
               f"{excess:.1f} deg")
 
 
+def piece_drift(r: Rig, frames, label, body) -> np.ndarray:
+    """[P] for each piece (connected part other than the body) the worst distance, over the posed ``frames``
+    [(rotations, positions)], of its vertices from where its body part carries them: the rest piece moved by
+    the rigid motion that best fits the closest body points of its vertices (posed through the rig's weights).
+    A larger piece spans bones and bends with them, so only small pieces are held to this."""
+    from autorig.pieces import closest_points
+    V, F = np.asarray(r.vertices, float), np.asarray(r.faces)
+    others = [p for p in np.unique(label) if p != body]
+    if not others:
+        return np.zeros(0)
+    idx = np.flatnonzero(label != body)
+    _, corners, bary = closest_points(V, F, label == body, V[idx])
+    contact = np.einsum("nk,nkj->nj", bary, V[corners])
+    worst = np.zeros(len(others))
+    for rotations, positions in frames:
+        posed = skin(r, rotations, positions)
+        carried = np.einsum("nk,nkj->nj", bary, posed[corners])
+        for k, p in enumerate(others):
+            m = label[idx] == p
+            A, B = contact[m], carried[m]
+            ca, cb = A.mean(axis=0), B.mean(axis=0)
+            U, _, Vt = np.linalg.svd((A - ca).T @ (B - cb))
+            D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+            R = (U @ D @ Vt).T
+            expected = (V[idx[m]] - ca) @ R.T + cb
+            worst[k] = max(worst[k], float(np.linalg.norm(posed[idx[m]] - expected, axis=1).max()))
+    return worst
+
+
+def piece_table(shared: Path, frames: int):
+    """The shared meshes with pieces: pieces on far bones, and how far pieces drift from their body part in
+    the boxing and walk clips (% of the height)."""
+    clips = [read_bvh(shared / "data" / "motion" / c) for c in ("assimp_Boxing_Toes.bvh", "delfem2_walk.bvh")]
+    print(f"\npieces (shared meshes): far = pieces <= {PIECE_SIZE:.0%} of the height on a far joint; drift = worst "
+          f"distance of a piece from where its body part carries it, {frames} frames of boxing and walk, % height")
+    for name, options in (("ogre", {}), ("ogre", {"fingers": True}), ("beast", {})):
+        r = rig(shared / "data" / "meshes" / f"{name}.obj", "biped", RigOptions(**options))
+        V = np.asarray(r.vertices, float)
+        from autorig.mesh import frame_rotation
+        up = frame_rotation(r.info["up"], r.info["front"])[1]
+        H = float(np.ptp(V @ up))
+        label, body = pieces(V, np.asarray(r.faces))
+        small, far = far_pieces(r, H, label, body)
+        posed = []
+        for motion in clips:
+            anim = retarget(r, motion)
+            posed += [(anim.rotations[t], anim.positions[t])
+                      for t in np.linspace(0, len(motion.frames) - 1, frames).round().astype(int)]
+        drift = 100 * piece_drift(r, posed, label, body) / H
+        sizes = np.array([np.linalg.norm(np.ptp(V[label == p], axis=0)) / H for p in np.unique(label) if p != body])
+        tag = name + (" --fingers" if options else "")
+        line = f"  {tag:<16} pieces {len(drift):>3}  small {small:>3}  far {far:>3}"
+        for what, sel in (("small", sizes <= PIECE_SIZE),):
+            line += (f"  drift {what}: worst {drift[sel].max():5.2f}%, over 1%: {int((drift[sel] > 1).sum())}"
+                     if sel.any() else "")
+        print(line)
+
+
 def _triple(t) -> str:
     return "/".join(f"{x:.2f}" for x in t) if np.isfinite(t[0]) else "-"
 
@@ -272,6 +347,7 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=6, help="frames of each clip (default 6)")
     ap.add_argument("--only", nargs="*", default=[], help="only these characters (folder names)")
     ap.add_argument("--no-tilt", action="store_true", help="skip the walking head-tilt table")
+    ap.add_argument("--no-pieces", action="store_true", help="skip the shared meshes' pieces table")
     a = ap.parse_args(argv)
     score = load_score(a.shared)
     rows = []
@@ -301,6 +377,8 @@ def main(argv=None):
                    else (np.nan,) * 3 for kind in ("bend", "clip")}
         print(f"  {source:<10}{len(sel):>3} chars  bends {_triple(summary['bend'])}  clips {_triple(summary['clip'])}"
               f"  far pieces artist {far[0]} ours {far[1]} of {sum(r['far'][0][0] for r in sel)}")
+    if not a.no_pieces:
+        piece_table(a.shared, a.frames)
     if not a.no_tilt:
         tilt_table(a.shared)
     return 0

@@ -107,7 +107,8 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
     return out
 
 
-def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers, surface=None) -> np.ndarray:
+def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers, surface=None,
+                      height=None) -> np.ndarray:
     """Bone-heat weights [V, J + K] of the rig's J joints (joints [J, 3], parents [J], names [J]) and the K
     finger joints (``read_fingers``); rows >= 0 summing to 1, every vertex weighted.
 
@@ -118,11 +119,12 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
     between the cut and the wrist, where both solutions agree on the forearm. The body's solve keeps its
     size (a 30k-face character: one solve of 23 bones, not of 63), and the fingers get the hand's
     triangles rather than the body's simplified copy. ``surface``: the body's heat surface made beforehand, as
-    ``attach.bone_heat`` takes it (None: made here)."""
+    ``attach.bone_heat`` takes it (None: made here); ``height``: the character's, as ``bone_heat`` takes it
+    (separate pieces, a nail on a finger, take the weights of the body they sit on: ``autorig.pieces``)."""
     from ..attach import bone_heat
 
     names = list(names)
-    weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface),
+    weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface, height=height),
                          np.zeros((len(vertices), len(fingers.names)))])
     column = {n: i for i, n in enumerate(names + fingers.names)}
     for side, status in fingers.status.items():
@@ -137,7 +139,7 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
         local_index = {n: i for i, n in enumerate(local_names)}
         local_parents = [-1, 0] + [local_index[fingers.parents[k]] for k in own]
         local_joints = np.vstack([elbow, wrist, fingers.positions[own]])
-        hand = bone_heat(piece.vertices, piece.faces, local_joints, local_parents)      # [N, 2 + 20]
+        hand = bone_heat(piece.vertices, piece.faces, local_joints, local_parents, height=height)  # [N, 2 + 20]
         # Input vertices of the piece (their welded copy is in it), and how far past the cut each lies.
         slot = np.full(int(piece.weld.max()) + 1, -1)
         slot[piece.ids] = np.arange(len(piece.ids))
