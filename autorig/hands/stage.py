@@ -121,7 +121,8 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
     triangles rather than the body's simplified copy. ``surface``: the body's heat surface made beforehand, as
     ``attach.bone_heat`` takes it (None: made here); ``height``: the character's, as ``bone_heat`` takes it
     (separate pieces, a nail on a finger, take the weights of the body they sit on: ``autorig.pieces``)."""
-    from ..attach import bone_heat
+    from ..attach import bone_heat, weld_surface
+    from ..pieces import follow_body
 
     names = list(names)
     weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface, height=height),
@@ -151,7 +152,11 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
         local = np.zeros((len(rows), weights.shape[1]))
         local[:, [column[n] for n in local_names]] = hand[at]
         weights[rows] = (1 - s) * weights[rows] + s * local
-    return weights
+    # The hand's piece is the surface joined to the wrist: nails and rings apart from it take the weights of
+    # the finger they sit on now that the fingers have theirs.
+    weld, Vw, Fw = weld_surface(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
+    first = np.unique(weld, return_index=True)[1]
+    return follow_body(Vw, Fw, weights[first], height)[weld]
 
 
 __all__ = ["FINGERS", "Fingers", "SIDES", "has_hands", "read_fingers", "skin_with_fingers"]
