@@ -5,16 +5,18 @@
                                      [--only NAME ...] [--no-tilt]
 
 For each ground-truth character (``shared/data/rigged/*`` with a template map, the training corpus
-``shared/data/train/*`` and the corpus ``--corpus`` by source, the first ``--per-source`` of each in name
-order) autorig rigs the mesh (``autorig.pipeline.rig`` with the ground truth's axes, so that orientation is not
+``shared/data/train/*`` and the corpus ``--corpus`` by source, ``--per-source`` of each spread evenly over
+its names in order) autorig rigs the mesh (``autorig.pipeline.rig`` with the ground truth's axes, so that orientation is not
 what is judged) and both rigs are posed by the same motions, joints matched by template name (the artist's
 joints through the example's ``biped_map`` / ``quadruped_map``, as ``autorig.learn`` reads them):
 
 * single-joint bends: every limb joint (shoulders, elbows, hips, knees, neck, spine; a quadruped's legs)
   turned 60 degrees about the character's left axis (a shoulder about its front axis: the arm raised), the
   joint's whole subtree following rigidly, each rig about its own joint;
-* the shared BVH clips (bipeds), ``K`` frames of each spread evenly, retargeted onto both rigs by
-  ``autorig.pose.retarget``.
+* the shared BVH clips (bipeds), ``K`` frames of each spread evenly, retargeted onto the artist's rig by
+  ``autorig.pose.retarget``, and autorig's rig given the same world rotation joint by joint (its root moved as
+  the artist's), so that both take one motion whatever their bones' rest directions (the head's tilt, which
+  depends on them, is measured apart).
 
 Posed vertices are compared as a fraction of the height: mean, 95th percentile and worst over vertices and
 poses. Then checks that need no artist, for both rigs:
@@ -77,11 +79,11 @@ def characters(shared: Path, corpus: Path | None, per_source: int, only: list[st
     found = [(s, d) for s, d in found if (d / "joints.json").is_file() and (d / "weights.npz").is_file()]
     if only:
         return [(s, d) for s, d in found if d.name in only]
-    taken, out = {}, []
-    for source, d in found:
-        if taken.get(source, 0) < per_source:
-            taken[source] = taken.get(source, 0) + 1
-            out.append((source, d))
+    out = []
+    for source in dict.fromkeys(s for s, _ in found):        # spread over each source, in name order
+        mine = [(s, d) for s, d in found if s == source]
+        picks = np.unique(np.linspace(0, len(mine) - 1, min(per_source, len(mine))).round().astype(int))
+        out += [mine[k] for k in picks]
     return out
 
 
@@ -158,12 +160,32 @@ def poses(gt, kind, rigs, motion_dir: Path, frames: int):
             continue
         motion = read_bvh(path)
         try:
-            anims = [retarget(r, motion, up=axis_name(up), front=axis_name(front)) for r in rigs]
+            anim = retarget(rigs[0], motion, up=axis_name(up), front=axis_name(front))
         except Exception as e:           # a rig the clip cannot drive (no hips) is reported, not fatal
             print(f"    {clip}: not retargeted ({e})", file=sys.stderr)
             continue
         for t in np.linspace(0, len(motion.frames) - 1, frames).round().astype(int):
-            yield f"{clip}@{t}", [skin(r, a.rotations[t], a.positions[t]) for r, a in zip(rigs, anims)]
+            yield f"{clip}@{t}", [skin(rigs[0], anim.rotations[t], anim.positions[t])] + [
+                skin(r, *same_rotations(rigs[0], anim.rotations[t], anim.positions[t], r)) for r in rigs[1:]]
+
+
+def same_rotations(source: Rig, rotations, positions, target: Rig):
+    """(rotations [J, 3, 3], positions [J, 3]) of ``target`` posed with the world rotations ``rotations`` of
+    ``source``'s joints of the same names (a joint ``source`` lacks turns with its parent), its root moved as
+    ``source``'s: both rigs take the same motion, whatever their bones' rest directions."""
+    parents = np.asarray(target.parents)
+    rest = np.asarray(target.joints, float)
+    index = {n: i for i, n in enumerate(source.names)}
+    root = int(np.flatnonzero(parents < 0)[0])
+    source_root = int(np.flatnonzero(np.asarray(source.parents) < 0)[0])
+    R = np.empty((len(parents), 3, 3))
+    P = np.empty((len(parents), 3))
+    for j, name in enumerate(target.names):
+        p = parents[j]
+        R[j] = rotations[index[name]] if name in index else (R[p] if p >= 0 else np.eye(3))
+        P[j] = (rest[j] + positions[source_root] - np.asarray(source.joints, float)[source_root] if p < 0
+                else P[p] + R[p] @ (rest[j] - rest[p]))
+    return R, P
 
 
 def pieces(V, F):
@@ -282,7 +304,6 @@ def piece_drift(r: Rig, frames, label, body) -> np.ndarray:
     [(rotations, positions)], of its vertices from where its body part carries them: the rest piece moved by
     the rigid motion that best fits the closest body points of its vertices (posed through the rig's weights).
     A larger piece spans bones and bends with them, so only small pieces are held to this."""
-    from autorig.pieces import closest_points
     V, F = np.asarray(r.vertices, float), np.asarray(r.faces)
     others = [p for p in np.unique(label) if p != body]
     if not others:
@@ -304,6 +325,20 @@ def piece_drift(r: Rig, frames, label, body) -> np.ndarray:
             expected = (V[idx[m]] - ca) @ R.T + cb
             worst[k] = max(worst[k], float(np.linalg.norm(posed[idx[m]] - expected, axis=1).max()))
     return worst
+
+
+def closest_points(V, F, keep, X):
+    """(distance [N], corners [N, 3], barycentric coordinates [N, 3]) of the closest points to X [N, 3] on the
+    faces of V, F whose corners are all ``keep`` [V] (here, not autorig's, so that the benchmark measures any
+    version of autorig alike)."""
+    import igl
+    faces = F[keep[F].all(axis=1)]
+    d2, face, closest = igl.point_mesh_squared_distance(np.ascontiguousarray(X), V, faces)
+    corners = faces[np.asarray(face, dtype=np.int64)]
+    bary = igl.barycentric_coordinates(closest, V[corners[:, 0]], V[corners[:, 1]], V[corners[:, 2]])
+    bary = np.clip(np.nan_to_num(bary, nan=1.0 / 3.0), 0.0, None)
+    bary /= np.maximum(bary.sum(axis=1, keepdims=True), 1e-300)
+    return np.sqrt(np.maximum(d2, 0.0)), corners, bary
 
 
 def piece_table(shared: Path, frames: int):
