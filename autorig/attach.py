@@ -82,7 +82,7 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None, he
         Wb = _weights_via_coarse_surface(coarse, heads, tails, laplacian)
     else:
         Wb = _bone_weights(Vw, Fw, heads, tails, laplacian)          # [U, B] on welded vertices
-    Wb = follow_body(Vw, Fw, Wb, height)                             # pieces go with the body they sit on
+    Wb = follow_body(Vw, Fw, Wb, height, (heads, tails))             # pieces go with the body they sit on
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
     return np.take(Wb @ to_joint, weld, axis=0)                      # = (Wb @ to_joint)[weld], faster

@@ -8,7 +8,8 @@ meshes alike:
 
 * the **body** is the connected part of the largest area; a part larger than ``SMALL`` of the height that
   mostly lies away from it (its median distance to the body over ``LAYER`` of the height: a separate head,
-  an arm modelled apart, a spear) keeps its own heat and counts as body too;
+  an arm modelled apart, a spear), and a part that a bone runs through (a hand modelled apart, a ring round a
+  finger), keep their own heat and count as body too;
 * a **small** piece (bounding-box diagonal at most ``SMALL`` of the height: a tooth, a nail, an eye, a button)
   is rigid: every vertex takes one row, the mean of the body's weights at the closest body points of the
   piece's vertices that touch the body (within ``CONTACT`` of the piece's size of its closest vertex), so a
@@ -31,12 +32,15 @@ LAYER = 0.04     # a larger piece whose median distance to the body is below thi
 CONTACT = 0.25   # a rigid piece's vertices within this fraction of its size of its closest one touch the body
 
 
-def follow_body(V, F, W, height: float | None = None) -> np.ndarray:
+def follow_body(V, F, W, height: float | None = None, bones=None) -> np.ndarray:
     """Weights [U, K] with the separate pieces' rows taken from the body (see the module docstring).
 
     V [U, 3] welded vertices, F [G, 3] faces on them (no repeated corners), W [U, K] weights (rows >= 0 summing
     to 1; bones or joints alike); height: the character's height in V's units (None: the longest side of the
-    bounding box). Vertices on no face keep their rows. A mesh of one piece is returned as it is."""
+    bounding box); bones: optional (heads [B, 3], tails [B, 3]): a small piece that a bone runs through (the
+    middle of a bone inside its bounding box: a hand or a head modelled apart, a ring round a finger) keeps its
+    own weights and counts as body. Vertices on no face keep their rows. A mesh of one piece is returned as it
+    is."""
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     if len(F) == 0:
@@ -62,6 +66,11 @@ def follow_body(V, F, W, height: float | None = None) -> np.ndarray:
 
     anchor = np.zeros(count, bool)
     anchor[body] = True
+    if bones is not None and len(bones[0]):
+        heads, tails = (np.asarray(b, dtype=np.float64).reshape(-1, 3) for b in bones)
+        middle = np.vstack([heads + s * (tails - heads) for s in (0.25, 0.5, 0.75)])      # [3B, 3]
+        for p in parts:            # a few to thousands of pieces (hair cards), each against every bone's middle
+            anchor[p] |= bool(np.all((middle >= lo[p]) & (middle <= hi[p]), axis=1).any())
     large = [int(p) for p in parts if p != body and size[p] > SMALL * height]
     if large:
         idx = np.flatnonzero(np.isin(label, large) & on_face)

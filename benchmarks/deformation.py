@@ -76,7 +76,8 @@ def characters(shared: Path, corpus: Path | None, per_source: int, only: list[st
     folders = [shared / "data" / "train"] + ([corpus] if corpus and corpus.is_dir() else [])
     for folder in folders:
         found += [(d.name.split("_")[0].split("-")[0], d) for d in sorted(folder.iterdir())]
-    found = [(s, d) for s, d in found if (d / "joints.json").is_file() and (d / "weights.npz").is_file()]
+    found = [(s, d) for s, d in found if (d / "joints.json").is_file() and (d / "weights.npz").is_file()
+             and any(k in (d / "joints.json").read_text() for k in ('"biped_map"', '"quadruped_map"'))]
     if only:
         return [(s, d) for s, d in found if d.name in only]
     out = []

@@ -138,3 +138,14 @@ def test_homer_walking_keeps_his_head_as_upright_as_the_clips():
     m = motion.end_sites[b] / np.linalg.norm(motion.end_sites[b])
     clip = np.degrees(np.arccos(np.clip(motion.world_transforms()[0][:, b] @ m @ m, -1, 1)))
     assert np.all(ours <= clip + 3.0)            # was 40-60 degrees back in every frame
+
+
+def test_a_small_part_that_a_bone_runs_through_keeps_its_own_weights():
+    # a hand modelled apart at the end of the arm: the hand's bone runs through it
+    V, F = scene(([0, 0, 0], [2, 0.2, 0.2]), ([2.02, 0.05, 0.05], [2.12, 0.15, 0.15]))
+    W = body_weights(V)
+    W[8:] = [0, 0, 1]
+    out = follow_body(V, F, W, height=2.0, bones=(np.array([[2.0, 0.1, 0.1]]), np.array([[2.2, 0.1, 0.1]])))
+    np.testing.assert_allclose(out[8:], W[8:])
+    moved = follow_body(V, F, W, height=2.0)              # without the bone: a piece on the body's end
+    assert moved[8, 2] == 0
