@@ -12,7 +12,7 @@ Bone heat gives each vertex to its nearest visible bone, and a head joint placed
 of the examples the biped learned from) leaves the face and jaw nearer the neck's bone than the head's. The
 head's weights should begin where the head meets the neck: ``skull_base`` reads, on the body's mid-plane,
 the height between the neck's lower half and the head joint where the body is thinnest from front to back
-(below a jaw, that is below the chin); the heat is then solved with the head's bone starting there, while the
+(below a jaw, that is below the chin; the top of a neck of even thickness); the heat is then solved with the head's bone starting there, while the
 joint itself, the head's pivot, stays where it is.
 
 Only for templates whose head bone points up (the biped and humanoid); a four-legged head is left alone.
@@ -25,6 +25,7 @@ CROWN_REACH = 1.5        # head radii around the vertical through the head joint
 UPRIGHT = 0.8            # a template's head bone points up if its direction's up component is above this
 PROFILE_HEIGHTS = 49     # heights sampled between the neck's lower half and the head joint
 PROFILE_DEPTHS = 121     # points across the body's depth at each height
+THIN = 1.05              # heights no deeper than this x the thinnest (and two samples) are the neck's thin part
 
 
 def upright_head(template) -> tuple[int, int, int, int] | None:
@@ -65,7 +66,8 @@ def crown_tip(joints: np.ndarray, template, vertices: np.ndarray, depth) -> np.n
 def skull_base(joints: np.ndarray, template, depth, vertices: np.ndarray) -> float | None:
     """The height (canonical y) where the head's weights begin: on the mid-plane (x of the neck joint), the
     height between halfway from the neck's parent to the neck and the head joint where the inside of the body
-    is shallowest from front to back (within a quarter of the height of the neck); None for a template
+    is shallowest from front to back (within a quarter of the height of the neck), the highest of the heights
+    as shallow as that (within ``THIN`` and two samples); None for a template
     without an upright head or where the body is not found there."""
     found = upright_head(template)
     if found is None:
@@ -83,7 +85,10 @@ def skull_base(joints: np.ndarray, template, depth, vertices: np.ndarray) -> flo
         return None
     first = np.argmax(inside, axis=1)
     last = PROFILE_DEPTHS - 1 - np.argmax(inside[:, ::-1], axis=1)
-    return float(y[int(np.argmin(z[last] - z[first]))])
+    extent = z[last] - z[first]
+    # a neck of even thickness is thinnest all along: the head begins at its top
+    thin = extent <= THIN * extent.min() + 2 * (z[1] - z[0])
+    return float(y[np.flatnonzero(thin)[-1]])
 
 
 def heat_joints(joints: np.ndarray, template, base: float | None) -> np.ndarray:
