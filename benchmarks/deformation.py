@@ -50,7 +50,7 @@ sys.path.insert(0, str(ROOT))
 
 from autorig.exchange.bvh import read_bvh  # noqa: E402
 from autorig.pipeline import RigOptions, rig  # noqa: E402
-from autorig.pose import retarget, skin  # noqa: E402
+from autorig.show.pose import retarget, skin  # noqa: E402
 from autorig.result import Rig  # noqa: E402
 
 BEND_DEGREES = 60.0
@@ -204,7 +204,7 @@ def pieces(V, F):
 
 def far_pieces(r: Rig, height: float, label, body) -> tuple[int, int]:
     """(pieces no larger than PIECE_SIZE of the height, of them those on a far joint; see the module doc)."""
-    from autorig.attach import segment_distances
+    from autorig.weights.attach import segment_distances
     V, W, parents = np.asarray(r.vertices, float), np.asarray(r.weights, float), np.asarray(r.parents)
     P = np.asarray(r.joints, float)
     bones = np.flatnonzero(parents >= 0)
@@ -351,7 +351,7 @@ def piece_table(shared: Path, frames: int):
     for name, options in (("ogre", {}), ("ogre", {"fingers": True}), ("beast", {})):
         r = rig(shared / "data" / "meshes" / f"{name}.obj", "biped", RigOptions(**options))
         V = np.asarray(r.vertices, float)
-        from autorig.mesh import frame_rotation
+        from autorig.input.mesh import frame_rotation
         up = frame_rotation(r.info["up"], r.info["front"])[1]
         H = float(np.ptp(V @ up))
         label, body = pieces(V, np.asarray(r.faces))

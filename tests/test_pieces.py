@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import autorig
-from autorig.pieces import follow_body
+from autorig.weights.pieces import follow_body
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
@@ -81,7 +81,7 @@ def _pieces(V, F):
 
 @pytest.mark.skipif(not OGRE.exists(), reason="shared data (../shared/data) is not present")
 def test_the_ogres_pieces_ride_on_the_bone_under_them_and_its_face_on_the_head():
-    from autorig.attach import segment_distances
+    from autorig.weights.attach import segment_distances
     rig = autorig.rig(OGRE)
     V, W, P = np.asarray(rig.vertices), np.asarray(rig.weights), np.asarray(rig.joints)
     parents = np.asarray(rig.parents)
@@ -127,7 +127,7 @@ def test_head_end_goes_straight_up_to_the_crown_and_stays_put_under_noise():
                     reason="shared data (../shared/data) is not present")
 def test_homer_walking_keeps_his_head_as_upright_as_the_clips():
     from autorig.exchange.bvh import read_bvh
-    from autorig.pose import retarget
+    from autorig.show.pose import retarget
     rig = autorig.rig(SHARED / "data" / "meshes" / "homer.obj")
     motion = read_bvh(WALK)
     anim = retarget(rig, motion)

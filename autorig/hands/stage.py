@@ -120,9 +120,9 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
     size (a 30k-face character: one solve of 23 bones, not of 63), and the fingers get the hand's
     triangles rather than the body's simplified copy. ``surface``: the body's heat surface made beforehand, as
     ``attach.bone_heat`` takes it (None: made here); ``height``: the character's, as ``bone_heat`` takes it
-    (separate pieces, a nail on a finger, take the weights of the body they sit on: ``autorig.pieces``)."""
-    from ..attach import bone_heat, weld_surface
-    from ..pieces import follow_body
+    (separate pieces, a nail on a finger, take the weights of the body they sit on: ``autorig.weights.pieces``)."""
+    from ..weights.attach import bone_heat, weld_surface
+    from ..weights.pieces import follow_body
 
     names = list(names)
     weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface, height=height),
