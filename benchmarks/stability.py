@@ -110,10 +110,7 @@ def variants(vertices, faces, up, front, height, names, seeds):
 def measure(name, path, template, up, front, args):
     import autorig
     from autorig.pipeline import RigOptions
-    try:
-        from autorig.input.mesh import load_mesh
-    except ImportError:    # before the package was grouped by stage
-        from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     vertices, faces = load_mesh(path, None)
     if args.detected:

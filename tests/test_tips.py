@@ -1,12 +1,12 @@
-"""Tips read off the surface (``autorig.tips``): at the ends of the right limbs, and still when the mesh moves
+"""Tips read off the surface (``autorig.readoff.tips``): at the ends of the right limbs, and still when the mesh moves
 by a millionth of its height (issue 37: a head's end jumped 7-24 % of the height, a fox's tail end 29 %)."""
 import numpy as np
 import pytest
 
 import autorig
 from autorig.pipeline import RigOptions
-from autorig.samples import mannequin, quadruped
-from autorig.tips import Surface, core_of
+from autorig.samples import mannequin
+from autorig.readoff.tips import Surface, core_of
 
 TIPS = ("head_end", "left_hand_end", "right_hand_end", "left_toe_end", "right_toe_end")
 

@@ -1,8 +1,9 @@
 """Continuous refinement: from the discrete embedding to every template joint's position.
 
 First every joint of a collapsed chain is put on its reduced bone's sphere path, at the arc-length fraction
-its template position has along the chain (a tip joint extends the path to the surface, so the joints before
-it sit inside the limb, not at its end). Then all joints move together to minimise, with scipy's L-BFGS-B and
+its template position has along the chain: the path ends at its tip read off the surface
+(``autorig.readoff.tips``: the centroid of the limb's end cap, so the joints before it sit inside the limb,
+not at its end), and its zigzag between sphere centres is smoothed out first. Then all joints move together to minimise, with scipy's L-BFGS-B and
 an exact gradient:
 
 =============  ======  ==================================================================================
@@ -22,10 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .distance import DistanceField
-from .embed import Embedding
-from .graph import SphereGraph
-from .template import Template
+from ..discretize.distance import DistanceField
+from . import Embedding
+from ..discretize.graph import SphereGraph
+from ..template import Template
 
 TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry": 0.5, "anchor": 0.2}
 ANCHOR_UNIT = 0.05
