@@ -143,7 +143,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
-              "confidence_parts": parts, "confidence_reasons": reasons, "embedding_penalty": round(float(embedding.cost), 4),
+              "confidence_parts": parts, "confidence_reasons": reasons,
+              "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
               **dropped_info(look), **(fingers.info() if fingers is not None else {}),
@@ -291,7 +292,8 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
         # No confidence: with no template there is nothing to check the skeleton against, and the one thing
         # measured, its joints inside the mesh, holds by construction (a constant 1.00 said nothing).
         info={"up": up, "front": front, "axes_detected": False, "confidence": None, "confidence_parts": {},
-              "confidence_reasons": [], "joints_inside": round(inside, 3), "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
+              "confidence_reasons": [], "joints_inside": round(inside, 3), "inside_voxels": int(grid.inside.sum()),
+              "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 
 

@@ -293,8 +293,8 @@ def _draw_legend(ax, names: list[str], colours: np.ndarray, shown: np.ndarray, c
 
     ax.axis("off")
     handles = [Patch(facecolor=colours[j], edgecolor="0.3", label=names[j]) for j in shown]
-    return ax.legend(handles=handles, loc="upper left", fontsize=_LEGEND_SIZE, title="strongest joint", title_fontsize=9,
-                     frameon=False, ncols=columns)
+    return ax.legend(handles=handles, loc="upper left", fontsize=_LEGEND_SIZE, title="strongest joint",
+                     title_fontsize=9, frameon=False, ncols=columns)
 
 
 # matplotlib's tab20 (strong hues, then their pale versions), tab20b and tab20c: written out so that drawing a

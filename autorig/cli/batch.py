@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import click
 
-from .common import (exit_codes, AXES, FINGERS_HELP, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP,
-                     VOXELS_HELP, common_options, input_options, parse_skeleton_scale)
+from .common import (AXES, FINGERS_HELP, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP, VOXELS_HELP,
+                     common_options, exit_codes, input_options, parse_skeleton_scale)
 
 # Must match autorig.batch.DEFAULT_EXTENSIONS (a test checks); repeated here so --help imports nothing.
 BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
@@ -48,7 +48,8 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
 @click.option("--html", metavar="PATH",
               help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
-                   "ones first (one offline file; needs Pillow: pip install 'autorig[preview]'). Also: html = \"PATH\" in INPUT_DIR's "
+                   "ones first (one offline file; needs Pillow: pip install 'autorig[preview]'). Also: "
+                   "html = \"PATH\" in INPUT_DIR's "
                    "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)

@@ -6,7 +6,7 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import exit_codes, RIG_AXES, check_output, common_options, refuse_input, rig_axes
+from .common import RIG_AXES, check_output, common_options, exit_codes, refuse_input, rig_axes
 
 # Under this share of the rig's joints (tips aside) a motion leaves most of the body in its rest pose.
 DRIVEN_SHARE = 0.5

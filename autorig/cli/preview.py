@@ -6,7 +6,7 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import (exit_codes, RIG_AXES, check_output, common_options, joint_count, preview_title, refuse_input,
+from .common import (RIG_AXES, check_output, common_options, exit_codes, joint_count, preview_title, refuse_input,
                      require_matplotlib, rig_axes)
 
 
@@ -40,7 +40,7 @@ def preview_command(rig_file: str, output: str | None, up: str | None, front: st
     with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
         up, front = rig_axes(rig, up, front)
-        render_preview(rig, out_path, title=title if title is not None else preview_title(rig_path.name, rig, FILE_VERTICES),
-                       up=up, front=front)
+        heading = title if title is not None else preview_title(rig_path.name, rig, FILE_VERTICES)
+        render_preview(rig, out_path, title=heading, up=up, front=front)
     if not quiet:
         click.echo(f"{rig_file}: {joint_count(rig)}, {len(rig.vertices)} {FILE_VERTICES} -> {out_path}")

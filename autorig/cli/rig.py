@@ -10,9 +10,9 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import (exit_codes, AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP,
-                     NAME_SCHEMES, NAMES_HELP, VOXELS_HELP, check_output, common_options, input_options, parse_skeleton_scale,
-                     degrees, joint_count, preview_title, refuse_input, require_matplotlib, warn_dropped)
+from .common import (AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES,
+                     NAMES_HELP, VOXELS_HELP, check_output, common_options, degrees, exit_codes, input_options,
+                     joint_count, parse_skeleton_scale, preview_title, refuse_input, require_matplotlib, warn_dropped)
 
 
 @click.command("rig", epilog=exit_codes(2, 3, 4, 5, 6, 9), short_help="Rig a mesh (the default command).")

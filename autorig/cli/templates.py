@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import exit_codes, AUTO_TEMPLATE, common_options
+from .common import AUTO_TEMPLATE, common_options, exit_codes
 
 
 @click.command("templates", short_help="List the built-in templates.")
