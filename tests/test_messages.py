@@ -111,6 +111,9 @@ def test_summary_and_strict_name_what_pulled_the_confidence_down(doubtful_rig, t
     reasons = "; ".join(doubtful_rig.info["confidence_reasons"])
     assert f"confidence {doubtful_rig.info['confidence']:.2f}, probably wrong: look at the preview ({reasons})" \
         in result.stdout
+    quiet = run(mesh, "-o", tmp_path / "quiet.glb", "-q")           # quiet, but a doubtful rig is a warning
+    assert quiet.stdout == "" and quiet.stderr.startswith(f"autorig: warning: {mesh}: confidence ")
+    assert "probably wrong" in quiet.stderr and len(quiet.stderr.splitlines()) == 1
     strict = run(mesh, "-o", tmp_path / "strict.glb", "--strict")
     assert strict.exit_code == 6 and not (tmp_path / "strict.glb").exists()
     assert reasons in strict.stderr and not PART_VALUE.search(strict.stderr)   # not "(symmetry 0.82, inside 0.90)"

@@ -15,7 +15,7 @@ A doubtful rig (``AssetResult.doubtful``: confidence below 0.5) is rigged, but p
 so, with what pulled its confidence down (``autorig.explain``).
 
 Assets skipped as unchanged are summed up in one line, except earlier failures, which are listed again.
-``quiet`` keeps only the lines of failed assets.
+``quiet`` keeps only the lines of failed and doubtful assets.
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ class BatchProgress:
         if asset.status == "skipped":
             if asset.failed:
                 self._line(f"failed  {asset.error} (unchanged since)")
-            elif asset.doubtful and not self.quiet:
+            elif asset.doubtful:    # said even when quiet: a warning
                 self._line(f"doubtful {asset.input}  confidence {asset.confidence:.2f} (unchanged since)")
             return
         self.done += 1
@@ -59,13 +59,13 @@ class BatchProgress:
         if self.bar is not None:
             if asset.failed:
                 self._line(f"failed  {asset.error}")
-            elif asset.doubtful and not self.quiet:
+            elif asset.doubtful:
                 self._line(f"doubtful {asset.input}  confidence {asset.confidence:.2f}, probably wrong")
             self.bar.update(1)
             self._postfix()
         elif asset.failed:
             self._line(f"[{self.done}/{self.total}] failed  {asset.error}")
-        elif not self.quiet:
+        elif not self.quiet or asset.doubtful:
             confidence = f"  confidence {asset.confidence:.2f}" if asset.confidence is not None else ""
             if asset.doubtful:
                 reasons = "; ".join(asset.confidence_reasons)

@@ -57,7 +57,7 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--fail-on-doubtful", is_flag=True,
               help="Exit with code 8 when no asset failed but some rig is doubtful (confidence below 0.5: "
                    "probably wrong); the JUnit report then fails those rigs too.")
-@click.option("-q", "--quiet", is_flag=True, help="Print only failed assets (and warnings).")
+@click.option("-q", "--quiet", is_flag=True, help="Print only failed and doubtful assets (and warnings).")
 @input_options
 @common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,

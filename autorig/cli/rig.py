@@ -53,7 +53,8 @@ from .common import (AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMAT
               help=NAMES_HELP)
 @click.option("--fingers", is_flag=True, help=FINGERS_HELP)
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success (warnings still).")
+@click.option("-q", "--quiet", is_flag=True,
+              help="Print nothing on success (warnings still, and a doubtful rig's confidence as one).")
 @input_options
 @common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, convention: str | None, up: str,
@@ -100,7 +101,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
 
     from ..confidence import STRICT_THRESHOLD
     from ..errors import LowConfidenceError
-    from ..explain import confidence_words
+    from ..explain import confidence_words, is_doubtful
     from ..pipeline import RigOptions, rig
     with quiet_libraries(shown=verbose):
         _import_paused(RIG_MODULES, fmt)
@@ -117,6 +118,9 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
+    if quiet and is_doubtful(confidence):     # a warning: said even when quiet
+        click.echo(f"autorig: warning: {mesh}: {confidence_words(confidence, result.info['confidence_reasons'])}",
+                   err=True)
     if not quiet:
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
