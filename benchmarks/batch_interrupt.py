@@ -6,7 +6,7 @@ A temporary folder (never in the repo) of four copies of ``shared/data/meshes/ME
 ``autorig batch -j 2 --template quadruped`` in its own session; ``--after`` seconds later SIGINT goes to the whole
 process group, as a terminal's Ctrl-C does. Printed per run: the seconds from the signal to the process's exit,
 its exit code (130 expected) and how many of its child processes (the workers and multiprocessing's resource
-tracker) are still there a second later.
+tracker) still run a second later (zombies not counted: their end is over, only not yet reaped).
 """
 from __future__ import annotations
 
@@ -30,6 +30,14 @@ def children(pid: int) -> set[int]:
         except OSError:
             pass
     return found
+
+
+def running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (one whose end its new parent has not yet reaped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
 
 
 def main() -> None:
@@ -59,9 +67,11 @@ def main() -> None:
             _, stderr = process.communicate()
             seconds = time.monotonic() - start
             time.sleep(1.0)
-            alive = [pid for pid in workers if Path(f"/proc/{pid}").exists()]
+            alive = [pid for pid in workers if running(pid)]
+            for pid in alive:
+                print("  alive:", Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")[:120].decode())
             print(f"run {run + 1}: stopped {seconds:.2f} s after SIGINT, exit {process.returncode}, "
-                  f"{len(workers)} children before, {len(alive)} alive 1 s after; {stderr.decode().strip()[-60:]!r}")
+                  f"{len(workers)} children before, {len(alive)} running 1 s after; {stderr.decode().strip()[-60:]!r}")
 
 
 if __name__ == "__main__":

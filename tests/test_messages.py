@@ -245,3 +245,46 @@ def test_empty_batch_names_the_extensions_it_looked_for(tmp_path):
     result = run("batch", tmp_path / "in", "-o", tmp_path / "out", "--ext", "obj,ply")
     assert result.exit_code == 0
     assert "no meshes in" in result.stderr and ".obj, .ply files" in result.stderr
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads a process's children from Linux /proc")
+def test_ctrl_c_stops_a_batch_and_its_workers(tmp_path):
+    """SIGINT to the batch's process group (a terminal's Ctrl-C) mid-rig: exit 130, one line, no worker left
+    running (they are terminated, not waited for: benchmarks/batch_interrupt.py measures how fast)."""
+    import os
+    import signal
+    import subprocess
+    import time
+
+    (tmp_path / "in").mkdir()
+    for k in range(4):
+        (tmp_path / "in" / f"dog{k}.obj").write_bytes((DATA / "dog.obj").read_bytes())
+    autorig_command = Path(sys.executable).with_name("autorig")
+    process = subprocess.Popen([str(autorig_command), "batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"),
+                                "-j", "2"], start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+    def children() -> set[int]:
+        found = set()
+        for task in Path(f"/proc/{process.pid}/task").glob("*"):
+            try:
+                found |= {int(c) for c in (task / "children").read_text().split()}
+            except OSError:
+                pass
+        return found
+    deadline = time.monotonic() + 60
+    while len(children()) < 2 and time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.1)
+    time.sleep(0.5)       # the workers are importing or rigging
+    workers = children()
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130 and stderr.decode().strip().splitlines()[-1] == "autorig: interrupted"
+    assert "Traceback" not in stderr.decode()
+    time.sleep(1.0)
+
+    def running(pid: int) -> bool:     # not a zombie: a process whose end is over but not yet reaped
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        except (OSError, IndexError):
+            return False
+    assert workers and [pid for pid in workers if running(pid)] == []

@@ -126,6 +126,23 @@ def run_locally(jobs: int, work: Iterator[tuple[Plan, Job]], finished) -> None:
                     raise
 
 
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c():
+    """While a submit may start a worker process: SIGINT ignored, which a spawned Python keeps. A terminal's
+    Ctrl-C reaches every process of its group; the workers would each print a KeyboardInterrupt traceback (one
+    still importing autorig did), while this process stops them itself (``_stop_workers``)."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _stop_workers(executor) -> None:
     """Ctrl-C: end the pool's workers now rather than when their rigs end (a worker deep in libigl's C code
     sees its own SIGINT only when the call returns: a 48k-vertex batch took 14 s to stop). Their assets are
@@ -153,7 +170,8 @@ def drain(executor, window: int, work: Iterator[tuple[Plan, Job]], finished, los
             item = next(work, None)
             if item is None:
                 break
-            pending[executor.submit(rig_one, item[1])] = item[0]
+            with _workers_ignore_ctrl_c():
+                pending[executor.submit(rig_one, item[1])] = item[0]
         if not pending:
             return broken
         done, _ = wait(pending, return_when=FIRST_COMPLETED)
