@@ -213,7 +213,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
         cold = sum(map(len, info["cold_bones"].values()))
         click.echo(f"{mesh}: skeleton {skeleton_file}, {len(result.names)} joints ({info['joints_weighted']} "
                    f"weighted, {len(info['tip_bones'])} tip bones, {cold} bones left cold), {len(result.vertices)} "
-                   f"vertices, {end - start:.2f} s -> {out_path}" + (f" (preview {preview_path})" if preview else ""))
+                   f"input vertices, {end - start:.2f} s -> {out_path}" + (f" (preview {preview_path})" if preview else ""))
 
 
 def _output_for(mesh_path: Path, output: str | None, fmt: str | None, preview: bool, *inputs: Path
