@@ -72,7 +72,7 @@ class BatchProgress:
                 confidence += ", probably wrong" + (f" ({reasons})" if reasons else "")
             self._line(f"[{self.done}/{self.total}] {'doubtful' if asset.doubtful else 'ok      '} {asset.input}  "
                        f"{asset.template}  {asset.seconds:.1f} s{confidence}")
-        from ..confine import dropped_line
+        from ..input.confine import dropped_line
         for dropped in asset.dropped:  # said even when quiet, as by 'autorig MESH'
             self._line(f"warning {dropped_line(asset.input, dropped)}")
 

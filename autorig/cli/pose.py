@@ -1,4 +1,4 @@
-"""``autorig pose``: a rig file moved with a BVH motion (``autorig.pose``)."""
+"""``autorig pose``: a rig file moved with a BVH motion (``autorig.show.pose``)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -63,7 +63,7 @@ def pose_command(rig_file: str, motion: str, output: str | None, frame: int | No
 
     from ..exchange.bvh import read_bvh
     from ..exchange.gltf import read_glb
-    from ..pose import joint_map, read_map, retarget
+    from ..show.pose import joint_map, read_map, retarget
 
     _check_kinds(rig_path, motion_path)
     with quiet_libraries(shown=False):
@@ -83,7 +83,7 @@ def pose_command(rig_file: str, motion: str, output: str | None, frame: int | No
             write_animated_glb(rig, animation, out_path, name=motion_path.stem)
         else:
             from ..exchange.obj import write_obj
-            from ..pose import skin
+            from ..show.pose import skin
             write_obj(skin(rig, animation.rotations[frame], animation.positions[frame], dqs=dqs), rig.faces,
                       out_path)
     if not quiet:
@@ -116,7 +116,7 @@ def _check_kinds(rig_path: Path, motion_path: Path) -> None:
     """Say what a rig or motion file is when it is the wrong kind (a mesh given as the rig, a mesh or a glTF
     given as the motion), before its reader fails with what it could not parse."""
     from ..errors import InputError
-    from ..sniff import MESH_KINDS, file_kind
+    from ..input.sniff import MESH_KINDS, file_kind
     kind = file_kind(rig_path)
     if kind in MESH_KINDS or kind == "a BVH motion":
         hint = f": rig it first (autorig {rig_path}) and pose the .glb it writes" if kind in MESH_KINDS else ""

@@ -1,10 +1,10 @@
 """A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it
 (for a flat shape, a top view and the wider of the two).
 
-    from autorig.preview import render_preview
+    from autorig.show.preview import render_preview
     render_preview(rig, "hero.png")                  # the rig's own up/front (rig.info), else +y up, facing +z
 
-The views are orthographic and in the character's own frame (``autorig.mesh.frame_rotation(up, front)``):
+The views are orthographic and in the character's own frame (``autorig.input.mesh.frame_rotation(up, front)``):
 the front view looks at its face, so its left is on the picture's right; the side view looks at its right side,
 so it faces the picture's right. Faces are shaded from the camera and painted far to near; the skeleton is
 drawn on top of the mesh, as if seen through it (bones black, joints red, tips grey), with each weight-carrying
@@ -25,8 +25,8 @@ from io import BytesIO
 
 import numpy as np
 
-from .mesh import frame_rotation
-from .result import Rig
+from ..input.mesh import frame_rotation
+from ..result import Rig
 
 __all__ = ["render_preview", "draw_preview", "simplified"]
 
@@ -55,7 +55,7 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     """
     from matplotlib.image import imsave
 
-    from .exchange import write_file_atomic
+    from ..exchange import write_file_atomic
 
     figure, boxes = draw_preview(rig, title, up, front)
     buffer = BytesIO()
@@ -128,7 +128,7 @@ def simplified(vertices: np.ndarray, faces: np.ndarray, face_joint: np.ndarray, 
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The mesh (vertices [V, 3], faces [F, 3]) simplified to about ``count`` faces, each new face taking the
     joint (``face_joint`` [F]) of the original face whose centre is nearest its own: (vertices [V', 3],
-    faces [F', 3], face_joint [F']). For the pictures (this preview and ``autorig.thumbnails``).
+    faces [F', 3], face_joint [F']). For the pictures (this preview and ``autorig.show.thumbnails``).
 
     First vertex clustering on a grid of ``cells`` along the longest side (one cell per output pixel: what it
     merges is not visible, and it is one np.unique, ~10 ms at 100k faces), then quadric decimation
