@@ -16,9 +16,12 @@
                                   (``autorig.embed.convention``)
                -> legs            a four-legged template's leg joints read off the mesh's legs
                                   (``autorig.readoff.legs``)
+               -> tips            an upright head's tip up to its crown (``autorig.readoff.crown``)
                -> hands           fingers read off the full-resolution hands: three joints and a tip per
                                   digit (``autorig.hands``), for templates with fingers or ``fingers=True``
-               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
+               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted),
+                                  the head's bone heating from the base of the skull; separate pieces take
+                                  the weights of the body they sit on (``autorig.weights.pieces``)
                -> confidence      how much to trust the result
 
 ``skin`` is the same without the embedding, for the user's own skeleton (``autorig MESH --skeleton FILE``):
@@ -74,7 +77,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """
     from .weights.attach import bone_heat, start_heat_surface
     from .confidence import rig_confidence
+    from .explain import confidence_reasons
     from .embed.convention import convention_named, convention_shift, in_convention
+    from .readoff.crown import crown_tip, heat_joints, skull_base
     from .readoff.landmarks import neck_fraction
     from .input.mesh import prepare
     from .embed.orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
@@ -114,6 +119,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
             joints = read_legs(joints, template, *surface_of(field))
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
             joints = read_head(joints, template, field.depth, surface_of(field)[0])
+    with stage("tips"):
+        joints = crown_tip(joints, template, prepared.vertices, field.depth)   # head_end up to the crown
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers
@@ -122,12 +129,17 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
             joints = fingers.moved_joints(template.names, joints)   # an arm short of its hand ends at it
     with stage("skin weights"):
         surface = heat_surface.result_for(prepared)
-        weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents, surface=surface)
+        height = float(np.ptp(prepared.work_vertices[:, 1]))     # the canonical frame stands on y
+        # the head's bone heats from the base of the skull, wherever the head joint (its pivot) is
+        heat = heat_joints(joints, template, skull_base(joints, template, field.depth, prepared.work_vertices))
+        weights = (bone_heat(prepared.vertices, prepared.faces, heat, template.parents, surface=surface,
+                             height=height)
                    if fingers is None else
-                   skin_with_fingers(prepared.vertices, prepared.faces, joints, template.parents, template.names,
-                                     fingers, surface=surface))
+                   skin_with_fingers(prepared.vertices, prepared.faces, heat, template.parents, template.names,
+                                     fingers, surface=surface, height=height))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
+        reasons = confidence_reasons(field, graph, embedding, template, joints, parts, confidence)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.
     J = len(template.names)
     names, parents, body = template.with_helpers(joints)
@@ -142,7 +154,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
-              "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
+              "confidence_parts": parts, "confidence_reasons": reasons,
+              "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
               **dropped_info(look), **(fingers.info() if fingers is not None else {}),
@@ -283,13 +296,16 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
-        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
+        inside, _ = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
-        info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
-              "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
+        # No confidence: with no template there is nothing to check the skeleton against, and the one thing
+        # measured, its joints inside the mesh, holds by construction (a constant 1.00 said nothing).
+        info={"up": up, "front": front, "axes_detected": False, "confidence": None, "confidence_parts": {},
+              "confidence_reasons": [], "joints_inside": round(inside, 3), "inside_voxels": int(grid.inside.sum()),
+              "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 
 
