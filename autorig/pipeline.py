@@ -77,6 +77,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """
     from .weights.attach import bone_heat, start_heat_surface
     from .confidence import rig_confidence
+    from .explain import confidence_reasons
     from .embed.convention import convention_named, convention_shift, in_convention
     from .readoff.crown import crown_tip, heat_joints, skull_base
     from .readoff.landmarks import neck_fraction
@@ -138,6 +139,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
                                      fingers, surface=surface, height=height))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
+        reasons = confidence_reasons(field, graph, embedding, template, joints, parts, confidence)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.
     J = len(template.names)
     names, parents, body = template.with_helpers(joints)
@@ -152,7 +154,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
-              "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
+              "confidence_parts": parts, "confidence_reasons": reasons,
+              "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
               **dropped_info(look), **(fingers.info() if fingers is not None else {}),
@@ -183,12 +186,13 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
     from .embed import embed
     from .embed.refine import place_on_paths, refine
+    from .readoff.tips import surface_for
 
     stage = stage or _stage_timer({})
     with stage("embedding"):
         embedding = embed(graph, template, max_expansions)
     with stage("refinement"):
-        joints = refine(field, place_on_paths(graph, embedding, template), template)
+        joints = refine(field, place_on_paths(graph, embedding, template, surface_for(field)), template)
     return embedding, joints
 
 
@@ -292,13 +296,16 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
-        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
+        inside, _ = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
-        info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
-              "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
+        # No confidence: with no template there is nothing to check the skeleton against, and the one thing
+        # measured, its joints inside the mesh, holds by construction (a constant 1.00 said nothing).
+        info={"up": up, "front": front, "axes_detected": False, "confidence": None, "confidence_parts": {},
+              "confidence_reasons": [], "joints_inside": round(inside, 3), "inside_voxels": int(grid.inside.sum()),
+              "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 
 
