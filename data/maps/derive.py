@@ -8,10 +8,11 @@ skin weights, and its joints are given template names by where they lie, not by 
 mooq's ``_l`` bones lie on the character's right):
 
 four-legged (``quadruped_map``)
-    legs: the weighted joints off the mid-plane and below the trunk, split into front and back at the widest gap
-    along z, and into left (+x) and right; in each leg the highest joint is the shoulder or hip, and the others,
-    top down, go in order to the template joints (elbow, wrist, paw / knee, ankle, paw) whose height above the
-    ground, as a share of the leg's, is nearest theirs (the shares of the built-in quadruped template);
+    legs: the weighted joints off the mid-plane and below the trunk, with the ones off the mid-plane above them in
+    the hierarchy, split into front and back at the widest gap along z, and into left (+x) and right; in each leg
+    the highest joint is the shoulder or hip, and the others, top down, go in order to the template joints
+    (elbow, wrist, paw / knee, ankle, paw) whose height above the ground, as a share of the leg's, is nearest
+    theirs (the shares of the built-in quadruped template; a joint more than the template has stays unnamed);
     head: of the weighted mid-plane joints whose skin lies in front of the front legs, the one with most skin;
     hips / chest: the mid-plane joints nearest the middle of the hind / front legs' tops; spine: the mid-plane
     joint nearest half-way between them, if one lies between; neck: a joint on the path from the chest to the
@@ -119,14 +120,18 @@ def template_shares(kind: str = "quadruped") -> dict[str, dict[str, float]]:
     return out
 
 
-def assign_in_order(shares: list[float], targets: dict[str, float]) -> list[str]:
-    """Template names for joints at height ``shares`` (top down): the in-order choice of targets nearest them."""
+def assign_in_order(shares: list[float], targets: dict[str, float]) -> list[tuple[int, str]]:
+    """[(index into shares, template name)]: joints at heights ``shares`` (top down) matched in order to the
+    template joints at ``targets`` (top down) with the least total difference, as many as both have (a leg with
+    more joints than the template's leaves the ones that fit worst unnamed)."""
     names = list(targets)
-    best, best_cost = None, np.inf
-    for chosen in itertools.combinations(range(len(names)), len(shares)):
-        cost = sum(abs(s - targets[names[c]]) for s, c in zip(shares, chosen))
-        if cost < best_cost - 1e-12:
-            best, best_cost = [names[c] for c in chosen], cost
+    k = min(len(shares), len(names))
+    best, best_cost = [], np.inf
+    for joints in itertools.combinations(range(len(shares)), k):
+        for chosen in itertools.combinations(range(len(names)), k):
+            cost = sum(abs(shares[j] - targets[names[c]]) for j, c in zip(joints, chosen))
+            if cost < best_cost - 1e-12:
+                best, best_cost = [(j, names[c]) for j, c in zip(joints, chosen)], cost
     return best
 
 
@@ -134,8 +139,16 @@ def quadruped_map(s: Skeleton) -> dict[str, str | None]:
     mid_width = 0.04 * s.extent
     midline = [j for j in s.weighted if abs(s.P[j, 0]) < mid_width]
     trunk_y = float(np.median(s.P[midline, 1]))
-    side = sorted((j for j in s.weighted if abs(s.P[j, 0]) >= mid_width and s.P[j, 1] < trunk_y),
-                  key=lambda j: s.P[j, 2])
+    seeds = [j for j in s.weighted if abs(s.P[j, 0]) >= mid_width and s.P[j, 1] < trunk_y]
+    # and the joints off the mid-plane above them in the hierarchy (a hip joint level with the back)
+    side = set(seeds)
+    for j in seeds:
+        k = int(s.parents[j])
+        while k >= 0 and abs(s.P[k, 0]) >= mid_width and np.sign(s.P[k, 0]) == np.sign(s.P[j, 0]):
+            if s.skin[k] > 0:
+                side.add(k)
+            k = int(s.parents[k])
+    side = sorted(side, key=lambda j: (s.P[j, 2], j))
     z = s.P[side, 2]
     cut = int(np.argmax(np.diff(z))) + 1
     halves = {"back": side[:cut], "front": side[cut:]}
@@ -152,12 +165,11 @@ def quadruped_map(s: Skeleton) -> dict[str, str | None]:
             tops.setdefault(end, []).append(top)
             out[f"{end}_{side_name}_{top_name}"] = s.names[top]
             height = s.P[top, 1] - s.ground
-            rest = leg[1:1 + len(lower)]
-            labels = assign_in_order([(s.P[j, 1] - s.ground) / height for j in rest], shares[end])
+            rest = leg[1:]
             for name in lower:
                 out[f"{end}_{side_name}_{name}"] = None
-            for j, name in zip(rest, labels):
-                out[f"{end}_{side_name}_{name}"] = s.names[j]
+            for i, name in assign_in_order([(s.P[j, 1] - s.ground) / height for j in rest], shares[end]):
+                out[f"{end}_{side_name}_{name}"] = s.names[rest[i]]
     front_top = s.P[tops["front"]].mean(axis=0)
     back_top = s.P[tops["back"]].mean(axis=0)
     ahead = [j for j in midline if s.skin_centroid(j)[2] > front_top[2]]
