@@ -12,8 +12,9 @@ Cross-validation (``--cv``): by species (the species groups, e.g. the cattle fam
 ``--folds`` as ``benchmarks/cross_validation.py`` deals them) and by source (each source held out in turn). For
 each fold and template the template's learned parts (what the built-in one learned: ``cross_validation.
 shipped_parts``) are relearned from the other animals on the hand-set template (``templates/handset/``), and
-each held-out animal is rigged with the axes given and detected, as its file is (``none``), turned to face -z
-(``facing_back``) and turned Z-up, facing -y (``z_up``).
+each held-out animal is rigged with the axes given and detected, as its file is (``none``), and with the axes
+detected (given too with ``--turned-given``) turned to face -z (``facing_back``) and turned Z-up, facing -y
+(``z_up``).
 
 Scored per rig, against the artist's joints, in % of the animal's largest extent (its height or its length):
 structure right when each paw and the head lies nearer its own artist's joint than any other of the five, and
@@ -223,9 +224,16 @@ def main(argv=None) -> int:
     parser.add_argument("--only", help="rig only these animals (comma-separated names; the others still teach)")
     parser.add_argument("--limit", type=int, help="rig only the first N animals of each fold")
     parser.add_argument("--folds", type=int, default=4)
-    parser.add_argument("--json", type=Path, help="write every row here")
+    parser.add_argument("--turned-given", action="store_true",
+                        help="also rig the turned files with their axes given (default: detected only; given axes "
+                             "name the same frame as the file's own)")
+    parser.add_argument("--json", type=Path, help="write every row here (after each fold)")
+    parser.add_argument("--summary-from", type=Path, help="print the summary of a --json file and stop")
     parser.add_argument("--quiet", action="store_true", help="print the summary only")
     args = parser.parse_args(argv)
+    if args.summary_from:
+        print("\n".join(summary(json.loads(args.summary_from.read_text()))))
+        return 0
     lists = {k: [x for x in getattr(args, k).split(",") if x] for k in ("templates", "cv", "axes", "turns")}
     bad = ([t for t in lists["turns"] if t not in TURNS] + [c for c in lists["cv"] if c not in ("species", "source")]
            + [a for a in lists["axes"] if a not in ("given", "detected")])
@@ -260,14 +268,16 @@ def main(argv=None) -> int:
                     for animal in held:
                         for turn in lists["turns"]:
                             for axes in lists["axes"]:
+                                if turn != "none" and axes == "given" and not args.turned_given:
+                                    continue
                                 row = {"model": animal.name, "source": animal.source, "species": animal.species,
                                        "template": template, "cv": cv, "fold": label, "turn": turn, "axes": axes,
                                        "result": rig_animal(animal, path, turn, axes)}
                                 rows.append(row)
                                 say(line(row))
+                    if args.json:
+                        write_file_atomic(args.json, json.dumps(rows, indent=1).encode())
     print("\n".join(summary(rows)))
-    if args.json:
-        write_file_atomic(args.json, json.dumps(rows, indent=1).encode())
     return 0
 
 
