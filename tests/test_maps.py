@@ -107,3 +107,21 @@ def test_the_wipf_read_with_its_map_has_its_left_legs_on_its_left():
     examples = read_examples([wipf, wipf])
     assert all(isinstance(e, Example) and e is wipf for e in examples)
     assert json.loads((ROOT / "data" / "maps" / "openclonk_wipf.json").read_text())["source_group"] == "openclonk"
+
+
+def test_a_hip_joint_level_with_the_back_is_still_the_legs_top_and_a_joint_too_many_stays_unnamed():
+    joints = [("pelvis", None, (0, 2.0, -2.0)), ("back", "pelvis", (0, 2.1, 0.0)), ("front", "back", (0, 2.1, 2.0)),
+              ("skull", "front", (0, 2.8, 3.0)), ("tail", "pelvis", (0, 2.2, -3.0))]
+    for tag, x in (("L", 1.0), ("R", -1.0)):
+        joints += [(f"haunch.{tag}", "pelvis", (x, 2.3, -2.0)), (f"thigh.{tag}", f"haunch.{tag}", (x, 1.6, -2.0)),
+                   (f"shin.{tag}", f"thigh.{tag}", (x, 1.0, -1.8)), (f"heel.{tag}", f"shin.{tag}", (x, 0.55, -2.2)),
+                   (f"toe.{tag}", f"heel.{tag}", (x, 0.05, -2.0)),
+                   (f"arm.{tag}", "front", (x, 1.6, 2.0)), (f"fore.{tag}", f"arm.{tag}", (x, 0.9, 2.0)),
+                   (f"hand.{tag}", f"fore.{tag}", (x, 0.05, 2.0))]
+    mapping = derive.quadruped_map(skeleton(joints, "skull"))
+    # shares of the leg's height: thigh 0.70, shin 0.43, heel 0.24, toe 0.02 against knee 0.63, ankle 0.33, paw 0.03
+    assert [mapping[f"back_left_{j}"] for j in ("hip", "knee", "ankle", "paw")] == ["haunch.L", "thigh.L", "heel.L",
+                                                                                  "toe.L"]
+    assert "shin.L" not in mapping.values()
+    assert (mapping["front_left_elbow"], mapping["front_left_wrist"], mapping["front_left_paw"]) == ("fore.L", None,
+                                                                                                    "hand.L")
