@@ -190,23 +190,29 @@ def line(row: dict) -> str:
 
 
 def summary(rows: list[dict]) -> list[str]:
-    """One line per template, cross-validation and axes (over every turn and animal)."""
-    out = [f"{'template':9s} {'cv':7s} {'axes':8s} {'right':>7s} {'anatomy mean':>12s} {'worst':>6s} "
+    """One line per template, cross-validation, axes and turn (over every animal)."""
+    def label(r):
+        turn = r.get("turn", "none")
+        return r["axes"] if turn == "none" else f"{r['axes']}/{turn}"
+
+    def mean_worst(rs):
+        if not rs:
+            return "    -      -"
+        return (f"{np.mean([x for r in rs for x in r['anatomy'].values()]):5.1f} "
+                f"{max(r['anatomy_worst'] for r in rs):6.1f}")
+
+    out = [f"{'template':9s} {'cv':7s} {'axes':20s} {'right':>7s} {'anatomy mean':>12s} {'worst':>6s} "
            f"{'(right ones: mean':>17s} {'worst)':>6s} {'wrong at >= 0.5':>15s} {'failed':>6s}"]
-    keys = sorted({(r["template"], r["cv"], r["axes"]) for r in rows}, key=lambda k: (k[0], k[1], k[2]))
+    order = {"given": 0, "detected": 1, "given/facing_back": 2, "given/z_up": 3, "detected/facing_back": 4,
+             "detected/z_up": 5}
+    keys = sorted({(r["template"], r["cv"], label(r)) for r in rows}, key=lambda k: (k[0], k[1], order.get(k[2], 9)))
     for template, cv, axes in keys:
-        group = [r["result"] for r in rows if (r["template"], r["cv"], r["axes"]) == (template, cv, axes)
+        group = [r["result"] for r in rows if (r["template"], r["cv"], label(r)) == (template, cv, axes)
                  and "skipped" not in r["result"]]
         ok = [r for r in group if "error" not in r]
         right = [r for r in ok if r["structure"]]
         wrong_confident = [r for r in ok if not r["structure"] and r["confidence"] >= 0.5]
-
-        def mean_worst(rs):
-            if not rs:
-                return "    -      -"
-            return (f"{np.mean([x for r in rs for x in r['anatomy'].values()]):5.1f} "
-                    f"{max(r['anatomy_worst'] for r in rs):6.1f}")
-        out.append(f"{template:9s} {cv:7s} {axes:8s} {len(right):3d}/{len(group):<3d} {mean_worst(ok):>19s} "
+        out.append(f"{template:9s} {cv:7s} {axes:20s} {len(right):3d}/{len(group):<3d} {mean_worst(ok):>19s} "
                    f"{mean_worst(right):>24s} {len(wrong_confident):3d}/{len(group) - len(right):<11d} "
                    f"{len(group) - len(ok):6d}")
     return out
