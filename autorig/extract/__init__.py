@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..template import AUTO
 from .connect import connected_medial, inside_graph
 from .medial import medial_surface
 from .paths import path_tree
 from .skeleton import control_skeleton
 from .voxels import distance_map, voxelize
-from ..template import AUTO
 
 
 __all__ = ["AUTO", "voxelize", "distance_map", "medial_surface", "inside_graph", "connected_medial", "path_tree",
