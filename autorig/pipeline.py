@@ -273,7 +273,10 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("distance map"):
         depth = distance_map(grid, prepared.work_vertices, prepared.work_faces)
     with stage("medial surface"):
-        medial = connected_medial(inside_graph(depth), medial_surface(depth))
+        solid = inside_graph(depth)
+        medial = connected_medial(solid, medial_surface(depth))
+        if len(medial.voxels) < 2:
+            medial = solid          # a ball's medial surface is its centre alone: grow the path in the solid
     with stage("path tree"):
         tree = path_tree(medial)
     with stage("control skeleton"):
@@ -281,7 +284,8 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
-        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
+        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints,
+                                                template.parents, tree.candidates)
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
