@@ -11,10 +11,11 @@
                -> embed           A* over placements of the template's reduced skeleton
                -> place_on_paths  every template joint along the embedded paths
                -> refine          continuous optimisation of all joints
-               -> placement       a learned template's joints pulled towards it (``autorig.placement``)
+               -> placement       a learned template's joints pulled towards it (``autorig.embed.placement``)
                -> convention      the joints moved to where the chosen convention's artists put them
-                                  (``autorig.convention``)
-               -> legs            a four-legged template's leg joints read off the mesh's legs (``autorig.legs``)
+                                  (``autorig.embed.convention``)
+               -> legs            a four-legged template's leg joints read off the mesh's legs
+                                  (``autorig.readoff.legs``)
                -> hands           fingers read off the full-resolution hands: three joints and a tip per
                                   digit (``autorig.hands``), for templates with fingers or ``fingers=True``
                -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
@@ -24,7 +25,7 @@
 
     mesh, skeleton file -> prepare    canonical scale, clean working copy
                         -> fit        a BVH's units to the mesh's (or a given scale)
-                        -> plan_heat  which bones heat: tips, cold bones, split bones (``autorig.bones``)
+                        -> plan_heat  which bones heat: tips, cold bones, split bones (``autorig.weights.bones``)
                         -> bone_heat  skin weights for every input vertex
 """
 from __future__ import annotations
@@ -36,21 +37,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .limits import MAX_FACES
+from .input.limits import MAX_FACES
 from .result import Rig
 
 
 @dataclass
 class RigOptions:
     """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z), or "auto"
-    to detect it (see ``autorig.orient``).
+    to detect it (see ``autorig.embed.orient``).
     voxels, max_segments: template "auto" only: grid cells along the longest side of the mesh, and the most
     bones per extracted chain, plus one for each chain hanging from it (see ``autorig.extract``).
-    convention: where the joints go by whose habit, of the template's conventions (``autorig.convention``);
+    convention: where the joints go by whose habit, of the template's conventions (``autorig.embed.convention``);
     None for the template's default.
     max_faces: a mesh of more triangles is refused (``InputError``) before it is read (None: no limit).
     allow_outside_paths: let a mesh file name textures, MTL files and buffers outside its own folder
-    (``autorig.confine``).
+    (``autorig.input.confine``).
     fingers: read fingers off the hands (``autorig.hands``) whatever the template says; a template with
     ``"fingers": true`` always gets them."""
     up: str = "auto"
@@ -71,14 +72,14 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         skeleton extracted from the shape itself (``autorig.extract``).
     Returns a ``Rig`` in the input's own coordinates, weights for every input vertex in input order.
     """
-    from .attach import bone_heat, start_heat_surface
+    from .weights.attach import bone_heat, start_heat_surface
     from .confidence import rig_confidence
-    from .convention import convention_named, convention_shift, in_convention
-    from .landmarks import neck_fraction
-    from .mesh import prepare
-    from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
-    from .placement import learned_placement
-    from .rest_pose import rest_pose
+    from .embed.convention import convention_named, convention_shift, in_convention
+    from .readoff.landmarks import neck_fraction
+    from .input.mesh import prepare
+    from .embed.orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
+    from .embed.placement import learned_placement
+    from .readoff.rest_pose import rest_pose
     from .template import AUTO, Template, load_template
 
     options = options or RigOptions()
@@ -106,9 +107,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     with stage("convention"):
         joints = in_convention(joints, template, convention, field)
     if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
-        from .legs import read_legs, surface_of
-        from .head import read_head
-        from .rump import read_rump
+        from .readoff.legs import read_legs, surface_of
+        from .readoff.head import read_head
+        from .readoff.rump import read_rump
         with stage("legs"):
             joints = read_legs(joints, template, *surface_of(field))
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
@@ -149,11 +150,11 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
 
 
 def discretize(prepared, stage=None):
-    """(distance field, sphere graph) of a prepared mesh (``autorig.mesh.prepare``), in its canonical frame:
+    """(distance field, sphere graph) of a prepared mesh (``autorig.input.mesh.prepare``), in its canonical frame:
     the stages the embedding needs, shared by ``rig`` and the learner (``autorig.learn``)."""
-    from .distance import distance_field
-    from .graph import sphere_graph
-    from .medial import medial_samples, pack_spheres
+    from .discretize.distance import distance_field
+    from .discretize.graph import sphere_graph
+    from .discretize.medial import medial_samples, pack_spheres
 
     stage = stage or _stage_timer({})
     with stage("distance field"):
@@ -171,7 +172,7 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     ``rig`` and the learner's calibration rigs (``autorig.learn.calibrate``), which search with a smaller budget
     (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
     from .embed import embed
-    from .refine import place_on_paths, refine
+    from .embed.refine import place_on_paths, refine
 
     stage = stage or _stage_timer({})
     with stage("embedding"):
@@ -185,7 +186,7 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
 class SkinOptions:
     """scale: how the skeleton file's positions become the mesh's: a number multiplies them (the mesh's units
     per file unit), "auto" scales and moves the skeleton to fit the mesh's bounding box (see
-    ``autorig.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
+    ``autorig.weights.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
     mesh's) and 1 for JSON and glTF skeletons (taken as they are, in the mesh's coordinates). Anything else
     (zero, negative, not a number) is an ``InputError``. max_faces, allow_outside_paths: as in ``RigOptions``."""
     scale: float | str | None = None
@@ -210,12 +211,12 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     Returns a ``Rig`` with the skeleton's joints (names, hierarchy, parents first) in the mesh's coordinates and
     weights for every input vertex in input order; a glTF skeleton's nodes and bind pose ride along
     (``Rig.joint_nodes``) so that its glTF output keeps them. ``info`` says which leaves carry a tip bone and
-    which bones were left cold because they lie outside the mesh or have no length (``autorig.bones``).
+    which bones were left cold because they lie outside the mesh or have no length (``autorig.weights.bones``).
     """
-    from .attach import bone_heat
-    from .bones import fit_to_mesh, plan_heat
+    from .weights.attach import bone_heat
+    from .weights.bones import fit_to_mesh, plan_heat
     from .exchange.skeleton import Skeleton, read_skeleton
-    from .mesh import prepare
+    from .input.mesh import prepare
 
     options = options or SkinOptions()
     timings: dict[str, float] = {}
@@ -260,10 +261,10 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
 def _rig_without_template(vertices, faces, name: str, look, options: RigOptions, stage, timings) -> Rig:
     """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
-    from .attach import bone_heat
+    from .weights.attach import bone_heat
     from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
                           medial_surface, path_tree, skeleton_confidence, voxelize)
-    from .mesh import prepare
+    from .input.mesh import prepare
 
     up, front = fixed_axes(options.up, options.front)
     with stage("prepare"):
@@ -298,20 +299,20 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
 def _load(mesh, options) -> tuple[np.ndarray, np.ndarray, str, object]:
     """(vertices [V, 3], faces [F, 3], the name errors use, the input's ``Look`` or None) of a mesh path or
     (vertices, faces) pair, checked, with the ``options``' limits."""
-    from .limits import check_faces
-    from .look import load_look
-    from .mesh import check_mesh, load_mesh
+    from .input.limits import check_faces
+    from .input.mesh import check_mesh
+    from .input.read import read_input
 
     if isinstance(mesh, (str, Path)):
-        vertices, faces = load_mesh(mesh, options.max_faces, options.allow_outside_paths)
-        return vertices, faces, Path(mesh).name, load_look(mesh, faces, options.allow_outside_paths)
+        vertices, faces, look = read_input(mesh, options.max_faces, options.allow_outside_paths)
+        return vertices, faces, Path(mesh).name, look
     vertices, faces = check_mesh(*mesh, "mesh")
     check_faces(len(faces), options.max_faces, "mesh")
     return vertices, faces, "mesh", None
 
 
 def dropped_info(look) -> dict:
-    """``{"dropped": [...]}``, what of the input's look was left out (``autorig.confine.Dropped``), for a rig's
+    """``{"dropped": [...]}``, what of the input's look was left out (``autorig.input.confine.Dropped``), for a rig's
     ``info``; {} when nothing was, so that ordinary rigs stay as they were."""
     return {"dropped": [d.as_dict() for d in look.dropped]} if look is not None and look.dropped else {}
 

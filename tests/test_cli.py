@@ -45,7 +45,7 @@ def assert_one_error_line(result, code: int | None = None):
 def fake_rig(monkeypatch):
     """Replace the pipeline with a quick fake that loads the mesh for real and returns a trivial rig.
     The calls are recorded in the returned list as (mesh, template, options)."""
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     calls = []
 

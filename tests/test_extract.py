@@ -19,7 +19,7 @@ from autorig.extract import AUTO, fixed_axes
 from autorig.extract.shapes import (CreatureSpec, LimbSpec, NumpyDraw, creature, random_creature, score_limbs, star,
                                     tree)
 from autorig.extract.skeleton import best_split, split_chain
-from autorig.mesh import load_mesh
+from autorig.input.mesh import load_mesh
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = ROOT.parent / "shared" / "data" / "meshes"

@@ -1,4 +1,4 @@
-"""Pictures of a rig (autorig.preview, `autorig preview`, `autorig --preview`)."""
+"""Pictures of a rig (autorig.show.preview, `autorig preview`, `autorig --preview`)."""
 from __future__ import annotations
 
 import importlib.util
@@ -12,12 +12,12 @@ from rig_samples import rigged_mannequin
 from autorig import pipeline
 from autorig.cli import cli
 from autorig.exchange.gltf import write_glb
-from autorig.mesh import frame_rotation
+from autorig.input.mesh import frame_rotation
 
 pytest.importorskip("matplotlib", reason="the preview extra (matplotlib) is not installed")
 from PIL import Image  # noqa: E402  (Pillow comes with matplotlib)
 
-from autorig.preview import render_preview  # noqa: E402
+from autorig.show.preview import render_preview  # noqa: E402
 
 TETRA_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
 

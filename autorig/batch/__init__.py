@@ -86,7 +86,7 @@ Crash safety
     while the first runs stops at once with ``OutputError`` (exit 4), before any work.
 
 Files from the asset's own folder
-    Each asset may read only the files in its own folder and below it (``autorig.confine``): textures, MTL
+    Each asset may read only the files in its own folder and below it (``autorig.input.confine``): textures, MTL
     files, glTF buffers and images named outside it are left out with a warning (``AssetResult.dropped``),
     as is the asset itself when it is a symlink leading out of ``input_dir``, and a config's template and
     skeleton files must lie inside ``input_dir``: unless ``options.allow_outside_paths``. Even then a
@@ -104,7 +104,7 @@ Reports
     ``report`` (JSON), ``junit`` (JUnit XML) and ``html`` (a page to review the batch by eye:
     ``autorig.batch.review``) are written at the end, atomically; each may lie inside ``output_dir``, in
     folders that do not exist yet. With ``html`` the workers also draw each rig's front and side thumbnails
-    (``autorig.thumbnails.render_thumbnails``, its ``thumbnails`` stage time) into
+    (``autorig.show.thumbnails.render_thumbnails``, its ``thumbnails`` stage time) into
     ``output_dir/.autorig-thumbnails/``, and the manifest keeps them, with the stage times and the
     confidence's parts, so that a resumed run's page still shows the skipped assets in full.
 

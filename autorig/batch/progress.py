@@ -61,7 +61,7 @@ class BatchProgress:
             confidence = f"  confidence {asset.confidence:.2f}" if asset.confidence is not None else ""
             self._line(f"[{self.done}/{self.total}] ok      {asset.input}  {asset.template}  "
                        f"{asset.seconds:.1f} s{confidence}")
-        from ..confine import dropped_line
+        from ..input.confine import dropped_line
         for dropped in asset.dropped:  # said even when quiet, as by 'autorig MESH'
             self._line(f"warning {dropped_line(asset.input, dropped)}")
 

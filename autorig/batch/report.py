@@ -21,7 +21,7 @@ def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
                      "rest_pose": "A", "arm_angle": 41.5},
                     ...]}
 
-    ``rest_pose`` and ``arm_angle`` are the rig's (``autorig.rest_pose``: "T", "A" or "arms down", and the
+    ``rest_pose`` and ``arm_angle`` are the rig's (``autorig.readoff.rest_pose``: "T", "A" or "arms down", and the
     arms' degrees below the horizontal), null for a rig without arms (a quadruped) and for an asset without a rig.
     """
     from ..exchange import write_file_atomic

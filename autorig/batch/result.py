@@ -27,11 +27,11 @@ class AssetResult:
     timings     {stage: seconds} of the pipeline and the ``write`` stage ({} when skipped)
     previous_timings  for ``skipped``: the ``timings`` of the run that rigged it, else {}
     dropped     [{"what", "path", "reason"}] the parts of its look left out (``rig.info["dropped"]``: a texture
-                outside its folder, missing, not an image; see ``autorig.confine``), also for skipped assets
+                outside its folder, missing, not an image; see ``autorig.input.confine``), also for skipped assets
     hands       ``rig.info["hands"]``: which hands got fingers ({"left": "fingers", "right": "mitten"}) when
                 fingers were asked for (``autorig.hands``), also for skipped assets; else {}
     rest_pose   ``rig.info["rest_pose"]``: the arms' pose the bind pose is in ("T", "A" or "arms down",
-                ``autorig.rest_pose``), also for skipped assets; None for a rig without arms or no rig
+                ``autorig.readoff.rest_pose``), also for skipped assets; None for a rig without arms or no rig
     arm_angle   ``rig.info["arm_angle"]``: the arms' degrees below the horizontal that pose was read from, or None
     thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
                 flat shape) relative to the output folder, when

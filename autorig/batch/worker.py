@@ -39,7 +39,7 @@ class Job:
 def rig_one(job: Job) -> dict:
     """Rig one asset in a worker (a local process or a Dask worker): write its files to a scratch folder,
     rig, write the output there and return the output's bytes. Never raises for a problem with the asset."""
-    from .. import ahead
+    from ..weights import ahead
     from ..exchange import write_rig
     from ..pipeline import rig, skin
 
@@ -99,7 +99,7 @@ def _thumbnails_of(rig) -> dict[str, bytes]:
     """{view: WebP bytes} of ``rig``, or {} if they cannot be drawn (a cluster worker without Pillow, or a
     bug in the drawing): the rig itself is fine, so the asset is not failed for it; its card says so."""
     try:
-        from ..thumbnails import render_thumbnails
+        from ..show.thumbnails import render_thumbnails
         return render_thumbnails(rig)
     except Exception:
         return {}

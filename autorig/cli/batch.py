@@ -88,7 +88,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                                "still choose either per asset)")
     scale = parse_skeleton_scale(skeleton_scale)
     extensions = [e.strip().lstrip(".") for e in ext.split(",") if e.strip()]
-    from ..mesh import FORMATS as MESH_FORMATS
+    from ..input.mesh import FORMATS as MESH_FORMATS
     unknown = sorted({e for e in extensions if "." + e.lower() not in MESH_FORMATS})
     if unknown or not extensions:
         raise click.UsageError(f"--ext: autorig reads {', '.join(s[1:] for s in sorted(MESH_FORMATS))}"

@@ -151,7 +151,7 @@ ALLOW_OUTSIDE_HELP = ("Let a mesh read textures, MTL files and buffers it names 
 
 def input_options(command):
     """--max-faces and --allow-outside-paths, shared by 'autorig rig' and 'autorig batch'. The default must match
-    autorig.limits.MAX_FACES (a test checks); repeated so that --help need not import numpy."""
+    autorig.input.limits.MAX_FACES (a test checks); repeated so that --help need not import numpy."""
     command = click.option("--allow-outside-paths", is_flag=True, help=ALLOW_OUTSIDE_HELP)(command)
     return click.option("--max-faces", type=click.IntRange(min=1), default=5_000_000, metavar="N",
                         help=MAX_FACES_HELP)(command)
@@ -159,7 +159,7 @@ def input_options(command):
 
 def warn_dropped(source: str, info: dict) -> None:
     """One warning line on stderr for each part of the look a rig left out (``rig.info["dropped"]``)."""
-    from ..confine import dropped_line
+    from ..input.confine import dropped_line
     for dropped in info.get("dropped", []):
         _error_line(f"autorig: warning: {dropped_line(source, dropped)}")
 
@@ -219,7 +219,7 @@ def preview_title(name: str, rig) -> str:
 def rig_axes(rig, up: str | None, front: str | None) -> tuple[str, str]:
     """(up, front) of a rig read from a file: the ones given, else the ones autorig recorded in it
     (``exchange.gltf.recorded_axes``), else glTF's y and z; raises ``AxisError`` when they are parallel."""
-    from ..mesh import frame_rotation
+    from ..input.mesh import frame_rotation
     up, front = up or rig.info.get("up") or "y", front or rig.info.get("front") or "z"
     frame_rotation(up, front)
     return up, front

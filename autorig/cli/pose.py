@@ -1,4 +1,4 @@
-"""``autorig pose``: a rig file moved with a BVH motion (``autorig.pose``)."""
+"""``autorig pose``: a rig file moved with a BVH motion (``autorig.show.pose``)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -55,7 +55,7 @@ def pose_command(rig_file: str, motion: str, output: str | None, frame: int | No
 
     from ..exchange.bvh import read_bvh
     from ..exchange.gltf import read_glb
-    from ..pose import joint_map, read_map, retarget
+    from ..show.pose import joint_map, read_map, retarget
 
     with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
@@ -71,7 +71,7 @@ def pose_command(rig_file: str, motion: str, output: str | None, frame: int | No
             write_animated_glb(rig, animation, out_path, name=motion_path.stem)
         else:
             from ..exchange.obj import write_obj
-            from ..pose import skin
+            from ..show.pose import skin
             write_obj(skin(rig, animation.rotations[frame], animation.positions[frame], dqs=dqs), rig.faces,
                       out_path)
     if not quiet:

@@ -1,4 +1,4 @@
-"""``autorig preview``: a rig file drawn to a PNG (``autorig.preview``)."""
+"""``autorig preview``: a rig file drawn to a PNG (``autorig.show.preview``)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -28,7 +28,7 @@ def preview_command(rig_file: str, output: str | None, up: str | None, front: st
     (pip install 'autorig[preview]')."""
     require_matplotlib("autorig preview")
     from ..exchange.gltf import read_glb
-    from ..preview import render_preview
+    from ..show.preview import render_preview
 
     rig_path = Path(rig_file)
     out_path = Path(output) if output else rig_path.with_suffix(".png")

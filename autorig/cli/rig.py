@@ -68,7 +68,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     if verbose and quiet:
         raise click.UsageError("--verbose and --quiet cannot be used together")
     start = time.perf_counter()
-    from ..mesh import check_mesh_path, frame_rotation
+    from ..input.mesh import check_mesh_path, frame_rotation
     from ..template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
@@ -80,7 +80,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if skeleton != AUTO_TEMPLATE:
-        from ..convention import convention_named
+        from ..embed.convention import convention_named
         convention_named(skeleton, convention)   # an unknown convention fails here, before any slow work
     elif convention is not None:
         raise click.UsageError("--convention needs a learned template: --template auto has no conventions")
@@ -115,7 +115,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
             axes += " (detected)"
-        if "rest_pose" in result.info:    # autorig.rest_pose: the arms' pose the bind pose is in
+        if "rest_pose" in result.info:    # autorig.readoff.rest_pose: the arms' pose the bind pose is in
             axes += f", {result.info['rest_pose']} ({result.info['arm_angle']:.0f} deg)"
         template_name = result.template + (f" ({result.info['convention']})" if "convention" in result.info else "")
         click.echo(f"{mesh}: {template_name}, {len(result.names)} joints, {len(result.vertices)} vertices, "
@@ -131,10 +131,10 @@ def _hands(info: dict) -> str:
 
 
 # What each command's pipeline imports (see _import_paused); a module missing here only costs some speed.
-RIG_MODULES = ("autorig.pipeline", "autorig.attach", "igl", "scipy.sparse.linalg", "scipy.optimize")
+RIG_MODULES = ("autorig.pipeline", "autorig.weights.attach", "igl", "scipy.sparse.linalg", "scipy.optimize")
 
 
-SKIN_MODULES = ("autorig.pipeline", "autorig.attach", "autorig.bones", "igl", "scipy.sparse.linalg")
+SKIN_MODULES = ("autorig.pipeline", "autorig.weights.attach", "autorig.weights.bones", "igl", "scipy.sparse.linalg")
 
 
 def _import_paused(modules: tuple[str, ...], fmt: str) -> None:
@@ -178,7 +178,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     scale = parse_skeleton_scale(skeleton_scale)
 
     from ..exchange.skeleton import read_skeleton
-    from ..mesh import check_mesh_path
+    from ..input.mesh import check_mesh_path
 
     mesh_path = check_mesh_path(mesh)
     out_path, fmt = _output_for(mesh_path, output, fmt, preview, Path(skeleton_file))
@@ -233,7 +233,7 @@ def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, ver
     timings = {**result.timings, "write": time.perf_counter() - start}
     preview_path = None
     if preview:
-        from ..preview import render_preview
+        from ..show.preview import render_preview
         start = time.perf_counter()
         preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
         render_preview(result, preview_path, title=preview_title(mesh_path.name, result))

@@ -15,7 +15,7 @@ control skeleton   ``skeleton``     each path split where a straight bone fits i
 confidence         ``confidence``   joints inside, how clearly limbs stood out from bumps, left-right symmetry
 =================  ===============  ================================================================================
 
-The skin weights are then the same bone-heat solve as for templates (``autorig.attach``). Joint names are
+The skin weights are then the same bone-heat solve as for templates (``autorig.weights.attach``). Joint names are
 ``root``, ``chain<c>_joint<k>`` and ``chain<c>_end`` (see ``skeleton``). ``shapes`` builds test shapes with known
 branches (``star``, ``tree``).
 """

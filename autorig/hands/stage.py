@@ -119,7 +119,7 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
     size (a 30k-face character: one solve of 23 bones, not of 63), and the fingers get the hand's
     triangles rather than the body's simplified copy. ``surface``: the body's heat surface made beforehand, as
     ``attach.bone_heat`` takes it (None: made here)."""
-    from ..attach import bone_heat
+    from ..weights.attach import bone_heat
 
     names = list(names)
     weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface),

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import InputError
+from ..errors import InputError
 
 # Default of --max-faces: five times the largest mesh the speed table measures (1M faces, ~1 GB).
 MAX_FACES = 5_000_000

@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .distance import DistanceField
-from .embed import Embedding
-from .graph import SphereGraph
-from .template import Template
+from ..discretize.distance import DistanceField
+from . import Embedding
+from ..discretize.graph import SphereGraph
+from ..template import Template
 
 TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry": 0.5, "anchor": 0.2}
 ANCHOR_UNIT = 0.05

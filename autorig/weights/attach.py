@@ -50,7 +50,7 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) ->
     parents  [J] int: parent joint of each joint, -1 for a root; parents come before their children.
     owners   [J] int, optional: for each non-root joint c, the weight column that receives the heat of the
         bone parent(c) -> c. Default ``parents``: a joint owns the bones that leave it, as in glTF skinning.
-    surface  optional: ``heat_surface(vertices, faces)``, made beforehand (``autorig.ahead``).
+    surface  optional: ``heat_surface(vertices, faces)``, made beforehand (``autorig.weights.ahead``).
 
     Returns W [V, J] float64: W[i, j] is how much vertex i follows joint j's transform. Rows are >= 0 and sum
     to 1; joints that own no bone (tips) get zero columns. A skeleton without any bone (a single joint) gets
@@ -99,8 +99,8 @@ def heat_surface(V, F):
 
 
 def start_heat_surface(prepared) -> "HeatSurfaceAhead":
-    """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.mesh.PreparedMesh``), begun now on the
-    second core (``autorig.ahead``) when the mesh is dense enough to be simplified for the heat; its
+    """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.input.mesh.PreparedMesh``), begun now on the
+    second core (``autorig.weights.ahead``) when the mesh is dense enough to be simplified for the heat; its
     ``result_for`` gives it to ``bone_heat``'s ``surface``.
 
     Below that the work is mostly too small to pay for the fork: the pages a forked process shares with its

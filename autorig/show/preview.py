@@ -1,10 +1,10 @@
 """A picture of a rig: front and side views of the mesh coloured by dominant joint, the skeleton drawn over it
 (for a flat shape, a top view and the wider of the two).
 
-    from autorig.preview import render_preview
+    from autorig.show.preview import render_preview
     render_preview(rig, "hero.png")                  # the rig's own up/front (rig.info), else +y up, facing +z
 
-The views are orthographic and in the character's own frame (``autorig.mesh.frame_rotation(up, front)``):
+The views are orthographic and in the character's own frame (``autorig.input.mesh.frame_rotation(up, front)``):
 the front view looks at its face, so its left is on the picture's right; the side view looks at its right side,
 so it faces the picture's right. Faces are shaded from the camera and painted far to near; the skeleton is
 drawn on top of the mesh, as if seen through it (bones black, joints red, tips grey), with each weight-carrying
@@ -20,8 +20,8 @@ from io import BytesIO
 
 import numpy as np
 
-from .mesh import frame_rotation
-from .result import Rig
+from ..input.mesh import frame_rotation
+from ..result import Rig
 
 __all__ = ["render_preview"]
 
@@ -47,7 +47,7 @@ def render_preview(rig: Rig, path: str | os.PathLike, title: str | None = None, 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from .exchange import write_file_atomic
+    from ..exchange import write_file_atomic
 
     frame = frame_rotation(up or rig.info.get("up", "y"), front or rig.info.get("front", "z"))
     vertices = np.asarray(rig.vertices, dtype=np.float64) @ frame.T   # columns: left, up, front

@@ -1,6 +1,6 @@
 """The review page's thumbnails (``autorig batch --html``), drawn with Pillow instead of matplotlib.
 
-The same views as ``autorig.preview`` (front and side, or top and the wider of those for a flat shape; mesh
+The same views as ``autorig.show.preview`` (front and side, or top and the wider of those for a flat shape; mesh
 coloured by strongest joint, shaded from the camera and painted far to near, bones and joints over it), without
 what a 160-pixel picture cannot show legibly (title, labels, legend). matplotlib took 0.2-0.4 s a view, most of
 it building a figure, paths and artists for a picture a few kilobytes big; Pillow fills the same polygons in
@@ -14,9 +14,9 @@ from io import BytesIO
 
 import numpy as np
 
-from .mesh import frame_rotation
+from ..input.mesh import frame_rotation
 from .preview import choose_views, joint_colours
-from .result import Rig
+from ..result import Rig
 
 __all__ = ["render_thumbnails"]
 
@@ -35,7 +35,7 @@ _TIP_DIAMETER = 2.3
 def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front: str | None = None,
                       quality: int = 70) -> dict[str, bytes]:
     """Small pictures of ``rig`` for a page of many rigs (``autorig batch --html``): {view: WebP bytes} for the
-    two views ``autorig.preview.render_preview`` draws ("front" and "side"; "top" and one of those for a flat
+    two views ``autorig.show.preview.render_preview`` draws ("front" and "side"; "top" and one of those for a flat
     shape), each ``height`` pixels high and as wide as the view needs (at most twice as wide).
 
     up, front  as for ``render_preview``

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import AutorigError, InputError
+from ..errors import AutorigError, InputError
 from .limits import MAX_FACES, check_faces, check_file_size
 from .facing import face_cross, outward, used_vertices
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
@@ -57,35 +57,46 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
 
     A glTF scene is flattened: each mesh node's vertices are moved by the node's world transform, and the nodes
     are concatenated in order of their node names (see ``autorig.exchange.gltf.read_gltf_scene``). Point clouds
-    and lines in a scene are ignored. Materials and textures are not read here (``autorig.look`` does).
+    and lines in a scene are ignored. Materials and textures are not read here (``autorig.input.look`` does).
 
     Raises ``InputError`` (one line naming the file) for a missing or unreadable file, an unknown format,
     content that is not a mesh, and for meshes that cannot be rigged (see ``check_mesh``); also, before
     anything is allocated for them, for counts the file declares but does not hold, for more than
     ``max_faces`` triangles (None: no limit) and for a mesh too big for the memory available
-    (``autorig.limits``). A glTF's buffer files must lie in its folder unless ``allow_outside``
-    (``autorig.confine``).
+    (``autorig.input.limits``). A glTF's buffer files must lie in its folder unless ``allow_outside``
+    (``autorig.input.confine``).
     """
     path = check_mesh_path(path)
     suffix = path.suffix.lower()
     check_file_size(path)
     if suffix in (".obj", ".off"):
-        try:
-            data = path.read_bytes()
-        except OSError as e:
-            raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
-        if suffix == ".obj":  # every polygon line is one triangle or more
-            check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
-        text = as_text(data, path, FORMATS[suffix])
-        vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+        vertices, faces = parse_mesh_bytes(read_file(path), path, max_faces)
     elif suffix in (".glb", ".gltf"):
-        from .exchange.gltf import read_gltf_scene
+        from ..exchange.gltf import read_gltf_scene
         vertices, faces, _ = read_gltf_scene(path, allow_outside, max_faces, look=False)
     else:
         check_header(path, suffix, max_faces)
         vertices, faces = load_with_trimesh(path, suffix)
     check_faces(len(faces), max_faces, str(path))
     return check_mesh(vertices, faces, name=str(path))
+
+
+def read_file(path: Path) -> bytes:
+    """The bytes of the mesh file ``path``; ``InputError`` if it cannot be read."""
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+
+
+def parse_mesh_bytes(data: bytes, path: Path, max_faces: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of an OBJ or OFF file's bytes ``data`` (``path`` names the file and its format), not
+    yet checked by ``check_mesh``."""
+    suffix = path.suffix.lower()
+    if suffix == ".obj":  # every polygon line is one triangle or more
+        check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
+    text = as_text(data, path, FORMATS[suffix])
+    return parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
 
 
 def check_mesh_path(path: str | Path) -> Path:
