@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 def branches(vertices, faces, voxels: int, up: str = "y", front: str = "z"):
     """(tips [K, 3] in the mesh's frame, shares [K]) of the branches tried that were not dropped as ripples."""
     from autorig.extract import connected_medial, distance_map, inside_graph, medial_surface, path_tree, voxelize
-    from autorig.mesh import prepare
+    from autorig.input.mesh import prepare
 
     prepared = prepare(vertices, faces, up, front, name="mesh", checked=True)
     grid = voxelize(prepared.work_vertices, prepared.work_faces, voxels)
@@ -72,7 +72,7 @@ def spider_legs(vertices, faces) -> np.ndarray:
 def labelled(shared: Path, voxels: int, creatures: int):
     """(source, shares of limbs [*], shares of non-limbs [*]) of each labelled source at ``voxels``."""
     from autorig.extract.shapes import TIP_TOLERANCE, NumpyDraw, creature, random_creature
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     path = shared / "data" / "meshes" / "spider.obj"
     if path.exists():

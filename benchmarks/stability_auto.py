@@ -81,7 +81,7 @@ def compare(a, b, scale: float, height: float) -> tuple[bool, bool, float]:
 def shapes(shared: Path, creatures: int, only: set[str]):
     """(name, vertices, faces, up, front) of each shape to check."""
     from autorig.extract.shapes import NumpyDraw, creature, random_creature
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     for name, up, front in SHARED:
         path = shared / "data" / "meshes" / f"{name}.obj"

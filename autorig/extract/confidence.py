@@ -24,7 +24,7 @@ from .paths import LIMB_SHARE, Candidate
 
 # The closest calls of the labelled shapes LIMB_SHARE was learned on (benchmarks/limb_share.py: a creature's
 # shortest limb, the spider's longest palp) are this many times from it: a decision at least as clear is sure.
-MARGIN_FULL = 1.15
+MARGIN_FULL = 1.1
 SYMMETRY_SURFACE = 0.01     # of the height: a mirrored vertex this near the surface is (softly) on it
 SYMMETRY_ENDS = 0.05        # of the height: a chain end this near another's mirror image (softly) has a twin
 SAMPLE = 4000               # vertices tested for the mesh's symmetry, evenly picked

@@ -48,11 +48,10 @@ BODY_DEPTH = 1.5         # a limb's path crosses the body where it is this many 
 SMOOTH_ITERATIONS = 8    # passes of (1/4, 1/2, 1/4) averaging along each path
 BALL_FRACTION = 0.9      # smoothing moves a point by at most this fraction of its depth
 # A branch is a limb when it reaches at least this share of the longest way out from where it hangs (see
-# ``grow_paths``). Learned on labelled shapes (benchmarks/limb_share.py): the shortest limb of the random
-# creatures reaches 0.36 of it, their longest bump 0.20; the spider's longest palp 0.22 at 96 voxels and 0.27 at
-# 64, its shortest leg 0.74; the octopus's shortest arm 0.48. Set between the closest two (0.27, 0.36), as far
-# (in ratio) from each.
-LIMB_SHARE = 0.31
+# ``grow_paths``). Learned on labelled shapes (benchmarks/limb_share.py): the shortest limb of 200 random
+# creatures reaches 0.335 of it; the spider's longest palp 0.22 at 96 voxels and 0.27 at 64, its shortest leg
+# 0.75; the octopus's shortest arm 0.47. Set between the closest two (0.27, 0.335), as far (in ratio) from each.
+LIMB_SHARE = 0.30
 # How much nearer an extreme point on the left counts, per voxel of its offset from the middle (see
 # ``extreme_points``): more than the voxels' noise between mirror-symmetric limbs, a small share of a limb.
 SIDE_TILT = 0.1
