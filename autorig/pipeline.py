@@ -16,9 +16,12 @@
                                   (``autorig.embed.convention``)
                -> legs            a four-legged template's leg joints read off the mesh's legs
                                   (``autorig.readoff.legs``)
+               -> tips            an upright head's tip up to its crown (``autorig.readoff.crown``)
                -> hands           fingers read off the full-resolution hands: three joints and a tip per
                                   digit (``autorig.hands``), for templates with fingers or ``fingers=True``
-               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
+               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted),
+                                  the head's bone heating from the base of the skull; separate pieces take
+                                  the weights of the body they sit on (``autorig.weights.pieces``)
                -> confidence      how much to trust the result
 
 ``skin`` is the same without the embedding, for the user's own skeleton (``autorig MESH --skeleton FILE``):
@@ -74,7 +77,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     """
     from .weights.attach import bone_heat, start_heat_surface
     from .confidence import rig_confidence
+    from .explain import confidence_reasons
     from .embed.convention import convention_named, convention_shift, in_convention
+    from .readoff.crown import crown_tip, heat_joints, skull_base
     from .readoff.landmarks import neck_fraction
     from .input.mesh import prepare
     from .embed.orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
@@ -114,6 +119,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
             joints = read_legs(joints, template, *surface_of(field))
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
             joints = read_head(joints, template, field.depth, surface_of(field)[0])
+    with stage("tips"):
+        joints = crown_tip(joints, template, prepared.vertices, field.depth)   # head_end up to the crown
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers
@@ -122,12 +129,17 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
             joints = fingers.moved_joints(template.names, joints)   # an arm short of its hand ends at it
     with stage("skin weights"):
         surface = heat_surface.result_for(prepared)
-        weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents, surface=surface)
+        height = float(np.ptp(prepared.work_vertices[:, 1]))     # the canonical frame stands on y
+        # the head's bone heats from the base of the skull, wherever the head joint (its pivot) is
+        heat = heat_joints(joints, template, skull_base(joints, template, field.depth, prepared.work_vertices))
+        weights = (bone_heat(prepared.vertices, prepared.faces, heat, template.parents, surface=surface,
+                             height=height)
                    if fingers is None else
-                   skin_with_fingers(prepared.vertices, prepared.faces, joints, template.parents, template.names,
-                                     fingers, surface=surface))
+                   skin_with_fingers(prepared.vertices, prepared.faces, heat, template.parents, template.names,
+                                     fingers, surface=surface, height=height))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
+        reasons = confidence_reasons(field, graph, embedding, template, joints, parts, confidence)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.
     J = len(template.names)
     names, parents, body = template.with_helpers(joints)
@@ -142,7 +154,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
-              "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
+              "confidence_parts": parts, "confidence_reasons": reasons,
+              "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
               **dropped_info(look), **(fingers.info() if fingers is not None else {}),
@@ -173,12 +186,13 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
     from .embed import embed
     from .embed.refine import place_on_paths, refine
+    from .readoff.tips import surface_for
 
     stage = stage or _stage_timer({})
     with stage("embedding"):
         embedding = embed(graph, template, max_expansions)
     with stage("refinement"):
-        joints = refine(field, place_on_paths(graph, embedding, template), template)
+        joints = refine(field, place_on_paths(graph, embedding, template, surface_for(field)), template)
     return embedding, joints
 
 
@@ -263,7 +277,7 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
     from .weights.attach import bone_heat
     from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
-                          medial_surface, path_tree, skeleton_confidence, voxelize)
+                          medial_surface, path_tree, skeleton_confidence, skeleton_reasons, voxelize)
     from .input.mesh import prepare
 
     up, front = fixed_axes(options.up, options.front)
@@ -291,8 +305,12 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
+        # The confidence: joints inside, how clearly the limbs stood out from the bumps, left-right symmetry
+        # (``autorig.extract.confidence``).
         info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
-              "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
+              "confidence_parts": parts, "confidence_reasons": skeleton_reasons(parts),
+              "joints_inside": parts["inside"], "inside_voxels": int(grid.inside.sum()),
+              "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 
 

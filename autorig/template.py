@@ -276,8 +276,8 @@ def load_template(name_or_path: str | Path) -> Template:
             raise TemplateError(f"template {path}: not valid JSON ({e})") from None
         return template_from_dict(data, default_name=path.stem, source=str(path))
     if text_path not in builtin_names():
-        raise TemplateError(f"unknown template {text_path!r}; built-in templates: {', '.join(builtin_names())} "
-                            f"(or give a path to a .json file)")
+        raise TemplateError(f"unknown template {text_path!r}; built-in templates: {', '.join(builtin_names())}, "
+                            f"or auto (a skeleton from the mesh's own shape), or a path to a .json file")
     data = json.loads(_builtin_folder().joinpath(text_path + ".json").read_text())
     return template_from_dict(data, default_name=text_path, source=text_path)
 

@@ -155,7 +155,7 @@ def test_default_command_and_summary_line(tmp_path, tetra, fake_rig):
     assert result.stderr == ""
     lines = result.stdout.splitlines()
     assert len(lines) == 1
-    assert lines[0].startswith(f"{tetra}: quadruped, 28 joints, 4 vertices, ")
+    assert lines[0].startswith(f"{tetra}: quadruped, 28 joints (22 + 6 tips), 4 input vertices, ")
     assert lines[0].endswith(f" s -> {tmp_path / 'out.json'}")
     assert json.loads((tmp_path / "out.json").read_text())
     mesh, template, options = fake_rig[0]

@@ -337,6 +337,7 @@ def test_skeleton_is_well_formed_and_inside(case):
     parts = rig.info["confidence_parts"]
     assert 0.5 < rig.info["confidence"] <= 1.0
     assert rig.info["confidence"] == pytest.approx(parts["inside"] * parts["margin"] * parts["symmetry"], abs=2e-3)
+    assert rig.info["joints_inside"] == 1.0
     assert rig.template == AUTO and rig.info["chains"] == len(ends)
 
 

@@ -21,7 +21,7 @@ branches (``star``, ``tree``).
 """
 from __future__ import annotations
 
-from .confidence import skeleton_confidence
+from .confidence import skeleton_confidence, skeleton_reasons
 from .connect import connected_medial, inside_graph
 from .medial import medial_surface
 from .paths import path_tree
@@ -31,7 +31,7 @@ from ..template import AUTO
 
 
 __all__ = ["AUTO", "voxelize", "distance_map", "medial_surface", "inside_graph", "connected_medial", "path_tree",
-           "control_skeleton", "fixed_axes", "skeleton_confidence"]
+           "control_skeleton", "fixed_axes", "skeleton_confidence", "skeleton_reasons"]
 
 
 def fixed_axes(up: str, front: str) -> tuple[str, str]:

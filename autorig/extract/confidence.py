@@ -28,6 +28,9 @@ MARGIN_FULL = 1.1
 SYMMETRY_SURFACE = 0.01     # of the height: a mirrored vertex this near the surface is (softly) on it
 SYMMETRY_ENDS = 0.05        # of the height: a chain end this near another's mirror image (softly) has a twin
 SAMPLE = 4000               # vertices tested for the mesh's symmetry, evenly picked
+# The reasons (``skeleton_reasons``): at most this many, and a part above this is no reason (as ``autorig.explain``).
+MOST_REASONS = 2
+LEAST_PART = 0.95
 
 
 def skeleton_confidence(vertices: np.ndarray, faces: np.ndarray, joints: np.ndarray, parents: np.ndarray,
@@ -77,3 +80,16 @@ def skeleton_symmetry(vertices: np.ndarray, faces: np.ndarray, joints: np.ndarra
     gap = np.linalg.norm(twins[:, None] - ends[None], axis=2).min(axis=1)
     skeleton = float(np.mean(np.exp(-(gap / SYMMETRY_ENDS) ** 2)))
     return 1.0 - mesh * (1.0 - skeleton), mesh, skeleton
+
+
+def skeleton_reasons(parts: dict[str, float]) -> list[str]:
+    """What pulled the confidence down, in words, the lowest part first (at most MOST_REASONS; none above
+    LEAST_PART): ``parts`` as ``skeleton_confidence`` returns them."""
+    words = {
+        "inside": f"{100 * (1 - parts['inside']):.0f} % of the joints outside the mesh",
+        "margin": f"a branch reaches {parts['closest_share']:.2f} of the longest way out from where it leaves, "
+                  f"near the {LIMB_SHARE:.2f} that makes a limb: limb or bump is a close call",
+        "symmetry": "the mesh is its own mirror image left to right, its chains are not",
+    }
+    low = sorted((parts[name], name) for name in words if parts[name] < LEAST_PART)
+    return [words[name] for _, name in low[:MOST_REASONS]]

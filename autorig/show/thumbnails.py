@@ -15,7 +15,7 @@ from io import BytesIO
 import numpy as np
 
 from ..input.mesh import frame_rotation
-from .preview import choose_views, joint_colours
+from .preview import choose_views, joint_colours, simplified
 from ..result import Rig
 
 __all__ = ["render_thumbnails"]
@@ -50,7 +50,7 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
     faces = np.asarray(rig.faces, dtype=np.int64)
     face_joint = np.argmax(np.asarray(rig.weights)[faces].sum(axis=1), axis=1)             # [F] strongest joint
     if len(faces) > THUMBNAIL_FACES:
-        vertices, faces, face_joint = _simplified(vertices, faces, face_joint, THUMBNAIL_FACES, height)
+        vertices, faces, face_joint = simplified(vertices, faces, face_joint, THUMBNAIL_FACES, height)
     tips = np.array([name.endswith("_end") for name in rig.names], dtype=bool)
     face_colours = joint_colours(len(rig.names))[face_joint]
     pictures = {}
@@ -64,38 +64,6 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
         image.save(buffer, format="webp", quality=quality, method=4)
         pictures[name] = buffer.getvalue()
     return pictures
-
-
-def _simplified(vertices: np.ndarray, faces: np.ndarray, face_joint: np.ndarray, count: int, cells: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The mesh (vertices [V, 3], faces [F, 3]) simplified to about ``count`` faces, each new face taking the
-    joint (``face_joint`` [F]) of the original face whose centre is nearest its own: (vertices [V', 3],
-    faces [F', 3], face_joint [F']).
-
-    First vertex clustering on a grid of ``cells`` along the longest side (one cell per output pixel: what it
-    merges is not visible, and it is one np.unique, ~10 ms at 100k faces), then quadric decimation
-    (fast-simplification, as the pipeline's coarse mesh) of what is left: decimating 100k faces directly cost
-    0.1-0.2 s, most of a large asset's thumbnails.
-    """
-    import fast_simplification
-    from scipy.spatial import cKDTree
-
-    low = vertices.min(axis=0)
-    cell = max(float(np.ptp(vertices, axis=0).max()) / cells, 1e-300)
-    grid = np.floor((vertices - low) / cell).astype(np.int64)                  # [V, 3] in 0..cells
-    key = (grid[:, 0] * (cells + 1) + grid[:, 1]) * (cells + 1) + grid[:, 2]
-    _, first, cluster = np.unique(key, return_index=True, return_inverse=True)
-    faces = cluster.reshape(-1)[faces]
-    kept = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    vertices, faces, face_joint = vertices[first], faces[kept], face_joint[kept]
-    if len(faces) <= count:
-        return vertices, faces, face_joint
-    coarse_vertices, coarse_faces = fast_simplification.simplify(vertices, faces.astype(np.int32),
-                                                                 target_count=count)
-    coarse_vertices = np.asarray(coarse_vertices, dtype=np.float64)
-    coarse_faces = np.asarray(coarse_faces, dtype=np.int64)
-    _, nearest = cKDTree(vertices[faces].mean(axis=1)).query(coarse_vertices[coarse_faces].mean(axis=1))
-    return coarse_vertices, coarse_faces, face_joint[nearest]
 
 
 def _draw(vertices, faces, face_colours, joints, bones, tips, screen_x, screen_y, toward_camera, size):
