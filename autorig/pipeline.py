@@ -186,13 +186,14 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
     from .embed import embed
     from .embed.refine import place_on_paths, refine
-    from .readoff.tips import surface_for
+    from .readoff.tips import along_the_foot, surface_for
 
     stage = stage or _stage_timer({})
     with stage("embedding"):
         embedding = embed(graph, template, max_expansions)
     with stage("refinement"):
-        joints = refine(field, place_on_paths(graph, embedding, template, surface_for(field)), template)
+        joints = along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
+                                       template), template)
     return embedding, joints
 
 

@@ -344,30 +344,13 @@ class PreparedMesh:
     def coarse(self, max_faces: int = COARSE_FACES) -> tuple[np.ndarray, np.ndarray]:
         """The working mesh, simplified to at most ``max_faces`` triangles when it has more:
         (vertices [W', 3], faces [G', 3]) in the canonical frame. Dense scans carry far more triangles than
-        the skeleton's discretization can use; quadric decimation (fast-simplification) keeps the shape.
-        The decimation sees the mesh in an order of its own (``canonical_order``): the file's vertex order and
-        each triangle's first corner do not change which edges it collapses."""
+        the skeleton's discretization can use; quadric decimation (fast-simplification) keeps the shape."""
         if len(self.work_faces) <= max_faces:
             return self.work_vertices, self.work_faces
         import fast_simplification
-        vertices, faces = canonical_order(self.work_vertices, self.work_faces)
-        vertices, faces = fast_simplification.simplify(vertices, faces.astype(np.int32), target_count=max_faces)
+        vertices, faces = fast_simplification.simplify(self.work_vertices, self.work_faces.astype(np.int32),
+                                                       target_count=max_faces)
         return np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
-
-
-def canonical_order(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices, faces) of the same surface in an order read off its geometry: vertices sorted by position,
-    each triangle turned to start at its lowest vertex (its winding kept), triangles sorted. Two files of one
-    mesh that list its vertices or corners in other orders give the same arrays (vertices at one position
-    keep their relative order)."""
-    order = np.lexsort((vertices[:, 2], vertices[:, 1], vertices[:, 0]))
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    f = rank[faces]
-    first = np.argmin(f, axis=1)
-    f = f[np.arange(len(f))[:, None], (first[:, None] + np.arange(3)) % 3]
-    f = f[np.lexsort((f[:, 2], f[:, 1], f[:, 0]))]
-    return vertices[order], f
 
 
 @dataclass(frozen=True)

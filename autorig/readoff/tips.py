@@ -137,3 +137,16 @@ def surface_for(field) -> Surface:
     vertices = field.surface_vertices
     faces = getattr(field, "base", field).surface.faces
     return Surface(vertices, faces, core_of(vertices, faces))
+
+
+def along_the_foot(joints: np.ndarray, template) -> np.ndarray:
+    """[J, 3] ``joints`` (canonical frame, +y up) with each foot tip (a toe's or paw's end) at its joint's
+    height, so that the bone runs along the ground: the end cap's centroid sits low in the toe, and a toe bone
+    tipped down turns the foot when a motion's rest pose, whose feet are level, sets it level."""
+    out = np.array(joints, float)
+    for j in template.feet:
+        j = int(j)
+        p = int(template.parents[j])
+        if p >= 0 and template.is_tip(j):
+            out[j, 1] = out[p, 1]
+    return out
