@@ -23,7 +23,8 @@ poses), with its axes given. Scored: for each wrist, ankle and the head, whether
 own artist's joint than any other of those five and within 15 % of the height (structure right); and the
 anatomy joints (elbows, wrists, knees, ankles, head) mean and worst error, % of the height (the rest pose's
 height along up), with the confidence of the rigs whose structure is wrong. As a sanity check of each posed
-mesh, ``spread`` (how far its vertices moved from the rest, mean, % of the height) is printed; ``--out`` keeps
+mesh, ``spread`` (how far its vertices moved from the rest, mean, % of the height) is printed, and how far apart
+the artist's wrists are in it (% of the height: the nearer, the finer the structure test on them); ``--out`` keeps
 the posed characters (mesh.obj, joints.json, weights.npz) to look at with ``autorig preview``.
 """
 from __future__ import annotations
@@ -157,7 +158,8 @@ def write_posed(folder: Path, pose: str, out: Path) -> Path:
 
 
 def score_ends(meta: dict, rig_names: list[str], rig_joints: np.ndarray) -> dict:
-    """{"structure": all five ends right, "wrong": [ends that are not], "errors": {anatomy joint: % of height}}."""
+    """{"structure": all five ends right, "wrong": [ends that are not: "left_wrist at right_wrist" when nearer
+    another end's truth, the name alone when only too far], "errors": {anatomy joint: % of height}}."""
     height = float(meta["height_along_up"])
     at = {j["name"]: np.array(j["position"], float) for j in meta["joints"]}
     truth = {k: at[meta["biped_map"][k]] for k in ANATOMY if meta["biped_map"].get(k)}
@@ -170,7 +172,10 @@ def score_ends(meta: dict, rig_names: list[str], rig_joints: np.ndarray) -> dict
             wrong.append(k)
             continue
         d = {o: float(np.linalg.norm(mine[k] - truth[o])) for o in ENDS if o in truth}
-        if min(d, key=d.get) != k or d[k] > 0.15 * height:
+        nearest = min(d, key=d.get)
+        if nearest != k:
+            wrong.append(f"{k} at {nearest}")
+        elif d[k] > 0.15 * height:
             wrong.append(k)
     return {"structure": not wrong, "wrong": wrong, "errors": errors}
 
@@ -206,8 +211,11 @@ def evaluate(folders: list[Path], poses: list[str], kinds: list[str], out_dir: P
             rest_v, _ = read_obj_vertices(folder / "mesh.obj")
             new_v, _ = read_obj_vertices(posed / "mesh.obj")
             spread = 100 * float(np.linalg.norm(new_v - rest_v, axis=1).mean()) / height
+            at = {j["name"]: np.array(j["position"]) for j in meta["joints"]}
+            bmap = meta["biped_map"]
+            gap = 100 * float(np.linalg.norm(at[bmap["left_wrist"]] - at[bmap["right_wrist"]])) / height
             for kind in kinds:
-                row = {"model": folder.name, "pose": pose, "kind": kind, "spread": spread}
+                row = {"model": folder.name, "pose": pose, "kind": kind, "spread": spread, "wrist_gap": gap}
                 try:
                     rig = autorig.rig(posed / "mesh.obj", kind, autorig.RigOptions(up=up, front=front))
                     row.update(score_ends(meta, list(rig.names), rig.joints),
@@ -225,7 +233,8 @@ def line(row: dict) -> str:
         return f"{head} failed: {row['error']}"
     e = row["errors"]
     conf = row.get("confidence")
-    return (f"{head} spread {row['spread']:4.1f}  structure {'right' if row['structure'] else 'WRONG'}"
+    return (f"{head} spread {row['spread']:4.1f} wrists {row['wrist_gap']:4.1f} apart  structure "
+            f"{'right' if row['structure'] else 'WRONG'}"
             f"{'' if row['structure'] else ' (' + ','.join(row['wrong']) + ')'}  anatomy mean "
             f"{np.mean(list(e.values())):4.1f} worst {max(e.values()):5.1f} ({max(e, key=e.get)})"
             + (f"  confidence {conf:.2f}" if isinstance(conf, (int, float)) else ""))

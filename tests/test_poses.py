@@ -97,7 +97,7 @@ def test_the_verdict_on_structure_names_the_ends_in_the_wrong_place():
     swapped[[names.index("left_ankle"), names.index("right_ankle")]] = \
         posed[[names.index("right_ankle"), names.index("left_ankle")]]
     wrong = score_ends(posed_meta, names, swapped)
-    assert not wrong["structure"] and wrong["wrong"] == ["left_ankle", "right_ankle"]
+    assert not wrong["structure"] and wrong["wrong"] == ["left_ankle at right_ankle", "right_ankle at left_ankle"]
     far = posed.copy()
     far[names.index("head")] += 0.2 * meta["height_along_up"] * UP
     assert score_ends(posed_meta, names, far)["wrong"] == ["head"]
