@@ -1,7 +1,7 @@
 """Bipeds in poses other than T, A and arms down: arms bent in front of the chest, a stride, seated, idle stance.
 
-    python benchmarks/poses.py [--shared ../shared] [--corpus ../corpus] [--all] [--humanoid] [--out DIR]
-                               [--json FILE] [--poses NAME,...]
+    python benchmarks/poses.py [--shared ../shared] [--corpus ../corpus] [--all] [--humanoid] [--folds K]
+                               [--out DIR] [--json FILE] [--poses NAME,...]
 
 Each character (by default 8 MakeHuman bodies from ``--corpus`` and 8 0 A.D. bipeds from ``shared/data/train``;
 ``--all`` for every biped example the shipped biped learns from) is re-posed through its artist's weights as
@@ -17,12 +17,13 @@ relative to its parent, except feet, which are kept flat. The poses:
 - ``seated``: thighs 85 deg forward, knees bent 90 deg (shins down), feet flat;
 - ``idle``: arms bent and stride together.
 
-Every posed character is rigged with the SHIPPED biped (and with ``--humanoid`` the shipped humanoid; not
-cross-validated: the shipped templates learned from these characters in their rest poses, never from these
-poses), with its axes given. Scored: for each wrist, ankle and the head, whether the rig's joint is nearer its
-own artist's joint than any other of those five and within 15 % of the height (structure right); and the
-anatomy joints (elbows, wrists, knees, ankles, head) mean and worst error, % of the height (the rest pose's
-height along up), with the confidence of the rigs whose structure is wrong. As a sanity check of each posed
+Every posed character is rigged with the shipped biped (and with ``--humanoid`` the shipped humanoid; they
+learned from these characters, in their rest poses only), or with ``--folds K`` with templates learned as
+``humanoid.py`` learns them from the folds of whole groups that do not hold the character; always with its axes
+given and in its source's own convention. Scored: for each wrist, ankle and the head, whether the rig's joint
+is nearer its own artist's joint than any other of those five and within 15 % of the height (structure right);
+and the anatomy joints (elbows, wrists, knees, ankles, head) mean and worst error, % of the height (the rest
+pose's height along up), with the confidence of the rigs whose structure is wrong. As a sanity check of each posed
 mesh, ``spread`` (how far its vertices moved from the rest, mean, % of the height) is printed, and how far apart
 the artist's wrists are in it (% of the height: the nearer, the finer the structure test on them); ``--out`` keeps
 the posed characters (mesh.obj, joints.json, weights.npz) to look at with ``autorig preview``.
@@ -193,13 +194,55 @@ def characters(shared: Path, corpus: Path, every: bool) -> list[Path]:
     return human + zero
 
 
-def evaluate(folders: list[Path], poses: list[str], kinds: list[str], out_dir: Path, say) -> list[dict]:
+def templates_for(folders: list[Path], kinds: list[str], shared: Path, corpus: Path, folds: int, out_dir: Path,
+                  say) -> dict[tuple[str, Path], Path | str]:
+    """{(kind, folder): template}: the shipped template's name, or with ``folds`` > 0 a template learned as
+    ``humanoid.py`` learns it (``templates/retrain.sh``'s record) from the folds of whole groups that do not
+    hold ``folder`` (its body's group never seen)."""
+    if folds <= 0:
+        return {(kind, f): kind for kind in kinds for f in folders}
+    from humanoid import folds_of
+    from sources import examples
+
+    from autorig.exchange import write_file_atomic
+    from autorig.learn import learn_template
+    from autorig.template import load_template
+    record = json.loads((ROOT / "templates" / "biped.json").read_text())["learned_from"]
+    items = [item for item in examples(shared, corpus) if item[1] in record["sources"]]
+    wanted = {f.resolve() for f in folders}
+    out = {}
+    for k, (train, test) in enumerate(folds_of(items, folds)):
+        mine = [f for f in test if f.resolve() in wanted]
+        if not mine:
+            continue
+        for kind in kinds:
+            rec = json.loads((ROOT / "templates" / f"{kind}.json").read_text())["learned_from"]
+            base = load_template(ROOT / "templates" / "handset" / f"{kind}.json")
+            learned = learn_template(train, base=base, name=kind, parts=rec["learned"],
+                                     conventions=rec.get("conventions"),
+                                     default=rec.get("default_convention")).template
+            path = out_dir / f"{kind}_fold{k}.json"
+            write_file_atomic(path, json.dumps(learned.to_dict()).encode())
+            say(f"fold {k + 1}/{folds} {kind}: learned from {len(train)}, for {len(mine)} held out")
+            for f in mine:
+                out[(kind, f.resolve())] = path
+    return {(kind, f): out[(kind, f.resolve())] for kind in kinds for f in folders}
+
+
+def evaluate(folders: list[Path], poses: list[str], kinds: list[str], out_dir: Path, say,
+             templates: dict | None = None) -> list[dict]:
+    from types import SimpleNamespace
+
     import autorig
+    from autorig.learn.conventions import convention_for_source, source_of
+    from autorig.template import load_template
+    templates = templates or {(kind, f): kind for kind in kinds for f in folders}
     rows = []
     for folder in folders:
         meta0 = json.loads((folder / "joints.json").read_text())
         height = float(meta0["height_along_up"])
         up, front = (meta0.get(k, d).lstrip("+") for k, d in (("up_axis", "+y"), ("front_axis", "+z")))
+        source = source_of(SimpleNamespace(name=folder.name, meta=meta0), folder)
         for pose in poses:
             try:
                 posed = write_posed(folder, pose, out_dir / f"{folder.name}_{pose.replace(' ', '_')}")
@@ -217,7 +260,11 @@ def evaluate(folders: list[Path], poses: list[str], kinds: list[str], out_dir: P
             for kind in kinds:
                 row = {"model": folder.name, "pose": pose, "kind": kind, "spread": spread, "wrist_gap": gap}
                 try:
-                    rig = autorig.rig(posed / "mesh.obj", kind, autorig.RigOptions(up=up, front=front))
+                    template = templates[(kind, folder)]
+                    conventions = load_template(template).conventions or {}
+                    convention = convention_for_source(conventions, source)   # the source's own habit
+                    rig = autorig.rig(posed / "mesh.obj", template,
+                                      autorig.RigOptions(up=up, front=front, convention=convention))
                     row.update(score_ends(meta, list(rig.names), rig.joints),
                                confidence=rig.info.get("confidence"))
                 except Exception as e:       # a rig that fails is a result too
@@ -271,6 +318,8 @@ def main(argv=None) -> int:
     parser.add_argument("--all", action="store_true", help="every biped example, not 8 + 8")
     parser.add_argument("--humanoid", action="store_true", help="also the shipped humanoid")
     parser.add_argument("--poses", default=",".join(POSES), help="comma-separated, of: " + ", ".join(POSES))
+    parser.add_argument("--folds", type=int, default=0,
+                        help="cross-validate: learn each template without the character's group (0: the shipped)")
     parser.add_argument("--out", type=Path, help="keep the posed characters here (OBJ for autorig preview)")
     parser.add_argument("--json", type=Path, help="also write the rows here")
     args = parser.parse_args(argv)
@@ -284,7 +333,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         out_dir = args.out or Path(tmp)
         out_dir.mkdir(parents=True, exist_ok=True)
-        rows = evaluate(folders, poses, kinds, out_dir, print)
+        templates = templates_for(folders, kinds, args.shared, args.corpus, args.folds, out_dir, print)
+        rows = evaluate(folders, poses, kinds, out_dir, print, templates)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     print(summary(rows))
