@@ -36,9 +36,9 @@ from __future__ import annotations
 import numpy as np
 
 from .discretize.distance import DistanceField
+from .discretize.graph import SphereGraph
 from .embed.penalties import PROMINENCE, prominences
 from .embed.search import Embedding
-from .discretize.graph import SphereGraph
 from .template import Template
 
 STRICT_THRESHOLD = 0.5

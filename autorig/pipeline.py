@@ -277,7 +277,7 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
     from .weights.attach import bone_heat
     from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
-                          medial_surface, path_tree, skeleton_confidence, voxelize)
+                          medial_surface, path_tree, skeleton_confidence, skeleton_reasons, voxelize)
     from .input.mesh import prepare
 
     up, front = fixed_axes(options.up, options.front)
@@ -288,7 +288,10 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("distance map"):
         depth = distance_map(grid, prepared.work_vertices, prepared.work_faces)
     with stage("medial surface"):
-        medial = connected_medial(inside_graph(depth), medial_surface(depth))
+        solid = inside_graph(depth)
+        medial = connected_medial(solid, medial_surface(depth))
+        if len(medial.voxels) < 2:
+            medial = solid          # a ball's medial surface is its centre alone: grow the path in the solid
     with stage("path tree"):
         tree = path_tree(medial)
     with stage("control skeleton"):
@@ -296,15 +299,17 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
-        inside, _ = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
+        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints,
+                                                template.parents, tree.candidates)
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
-        # No confidence: with no template there is nothing to check the skeleton against, and the one thing
-        # measured, its joints inside the mesh, holds by construction (a constant 1.00 said nothing).
-        info={"up": up, "front": front, "axes_detected": False, "confidence": None, "confidence_parts": {},
-              "confidence_reasons": [], "joints_inside": round(inside, 3), "inside_voxels": int(grid.inside.sum()),
+        # The confidence: joints inside, how clearly the limbs stood out from the bumps, left-right symmetry
+        # (``autorig.extract.confidence``).
+        info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
+              "confidence_parts": parts, "confidence_reasons": skeleton_reasons(parts),
+              "joints_inside": parts["inside"], "inside_voxels": int(grid.inside.sum()),
               "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Retrain the built-in templates from the corpus: the one command the README documents.
+# Retrain the built-in templates from the corpus: the one command the guide documents (docs/reference/templates.md).
 #   bash templates/retrain.sh [SHARED] [CORPUS]      (defaults: ../shared and ../corpus, beside the checkout)
 # Each is learned by `autorig learn` from the 0 A.D. corpus (shared/data/train) and the shared artists' rigs
 # (shared/data/rigged) whose joints.json maps the template's joints, on the hand-set template of the same name

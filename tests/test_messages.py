@@ -134,11 +134,17 @@ def test_degrees_and_joint_count_words():
     assert joint_count(Rig(names=["hips", "l", "r"], parents=[-1, 0, 0])) == "3 joints (1 + 2 tips)"
 
 
-def test_auto_template_has_no_confidence_and_strict_refuses_it(tmp_path):
-    assert run(DATA / "mannequin.obj", "--template", "auto", "--strict").exit_code == 2
-    result = run(DATA / "mannequin.obj", "--template", "auto", "--voxels", "32", "-o", tmp_path / "a.glb")
-    assert result.exit_code == 0 and "confidence 1.00" not in result.stdout
-    assert "no confidence (--template auto" in result.stdout
+def test_auto_template_has_a_computed_confidence_that_strict_checks(tmp_path):
+    """--template auto's confidence is computed (autorig.extract.confidence), not a constant 1.00: the summary
+    says it, and --strict passes or refuses the rig on it as on any other (exit 6 below 0.5)."""
+    result = run(DATA / "mannequin.obj", "--template", "auto", "--voxels", "32", "-o", tmp_path / "a.json")
+    assert result.exit_code == 0, result.output
+    info = json.loads((tmp_path / "a.json").read_text())["info"]
+    parts = info["confidence_parts"]
+    assert info["confidence"] == pytest.approx(parts["inside"] * parts["margin"] * parts["symmetry"], abs=2e-3)
+    assert f"confidence {info['confidence']:.2f}" in result.stdout
+    strict = run(DATA / "mannequin.obj", "--template", "auto", "--voxels", "32", "--strict", "-o", tmp_path / "b.json")
+    assert strict.exit_code == (6 if info["confidence"] < 0.5 else 0), strict.output
 
 
 # ------------------------------------------------------------------------------------------------ help

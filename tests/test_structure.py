@@ -10,7 +10,7 @@ from pathlib import Path
 import networkx as nx
 
 PACKAGE = Path(__file__).resolve().parent.parent / "autorig"
-README = PACKAGE.parent / "README.md"
+MAP = PACKAGE.parent / "docs" / "how-it-works" / "built.md"
 MAX_LINES = 500
 
 
@@ -81,10 +81,10 @@ def test_the_top_level_shows_the_stages():
         assert stage in _listed(PACKAGE)
 
 
-def test_the_readme_map_names_every_package_and_module():
-    """The README's "How it is built" lists each of autorig's packages (``name/``) and top-level modules
+def test_the_guide_map_names_every_package_and_module():
+    """The guide's "How it is built" page lists each of autorig's packages (``name/``) and top-level modules
     (``name.py``) once, and under each package, indented by two spaces, each of that package's modules once."""
-    section = README.read_text(encoding="utf-8").split("## How it is built", 1)[1].split("\n## ", 1)[0]
+    section = MAP.read_text(encoding="utf-8")
     top = re.findall(r"^([a-z_]+(?:/|\.py)) ", section, flags=re.M)
     assert len(top) == len(set(top))
     assert sorted(top) == _listed(PACKAGE)

@@ -86,9 +86,6 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         convention_named(skeleton, convention)   # an unknown convention fails here, before any slow work
     elif convention is not None:
         raise click.UsageError("--convention needs a learned template: --template auto has no conventions")
-    if strict and skeleton == AUTO_TEMPLATE:
-        raise click.UsageError("--strict needs a confidence: --template auto has no template to check the "
-                               "skeleton against, so it has none")
     if fingers and skeleton == AUTO_TEMPLATE:
         raise click.UsageError("--fingers needs a template with hands: --template auto finds no wrists")
     if names != "template":

@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .search import MAX_EXPANSIONS
 from .ends import FEET_BAND
+from .search import MAX_EXPANSIONS
 
 AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too

@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import RigFailedError
 from ..discretize.graph import SphereGraph
+from ..errors import RigFailedError
 from ..template import PENALTY_WEIGHTS, ReducedSkeleton, Template
 
 # The hand-set Γ of the table above. It lives with the template data (a template's ``penalty_weights`` are

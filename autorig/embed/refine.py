@@ -24,9 +24,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..discretize.distance import DistanceField
-from . import Embedding
 from ..discretize.graph import SphereGraph
 from ..template import Template
+from . import Embedding
 
 TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry": 0.5, "anchor": 0.2}
 ANCHOR_UNIT = 0.05

@@ -13,8 +13,8 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2, Buffer, Node
 
-from ..input.confine import Refused, uri_file
 from ..errors import InputError
+from ..input.confine import Refused, uri_file
 from ..input.limits import check_memory
 
 _COMPONENT_DTYPES = {

@@ -12,6 +12,7 @@ medial surface     ``medial``       DMS: voxels no neighbour's inscribed ball co
                    ``connect``      centralised routes through the solid (and gap edges between separate solids)
 path tree          ``paths``        heart, extreme points, centralised paths (W = sum 1/d^3), coverage, smoothing
 control skeleton   ``skeleton``     each path split where a straight bone fits it worst; generated joint names
+confidence         ``confidence``   joints inside, how clearly limbs stood out from bumps, left-right symmetry
 =================  ===============  ================================================================================
 
 The skin weights are then the same bone-heat solve as for templates (``autorig.weights.attach``). Joint names are
@@ -20,8 +21,7 @@ branches (``star``, ``tree``).
 """
 from __future__ import annotations
 
-import numpy as np
-
+from .confidence import skeleton_confidence, skeleton_reasons
 from .connect import connected_medial, inside_graph
 from .medial import medial_surface
 from .paths import path_tree
@@ -31,7 +31,7 @@ from ..template import AUTO
 
 
 __all__ = ["AUTO", "voxelize", "distance_map", "medial_surface", "inside_graph", "connected_medial", "path_tree",
-           "control_skeleton", "fixed_axes", "skeleton_confidence"]
+           "control_skeleton", "fixed_axes", "skeleton_confidence", "skeleton_reasons"]
 
 
 def fixed_axes(up: str, front: str) -> tuple[str, str]:
@@ -41,16 +41,3 @@ def fixed_axes(up: str, front: str) -> tuple[str, str]:
     up = up if up != "auto" else ("z" if front.lstrip("+-") == "y" else "y")
     front = front if front != "auto" else ("y" if up.lstrip("+-") == "z" else "z")
     return up, front
-
-
-def skeleton_confidence(vertices: np.ndarray, faces: np.ndarray, joints: np.ndarray) -> tuple[float, dict[str, float]]:
-    """(confidence, {part: value}) of an extracted skeleton: with no template to fit, the one part is "inside",
-    the fraction of its joints (tips included: they sit on the medial surface too) inside the mesh
-    (vertices [V, 3], faces [F, 3], joints [J, 3], one frame), as in ``autorig.confidence``."""
-    import igl
-
-    winding = igl.fast_winding_number(np.ascontiguousarray(vertices, dtype=np.float64),
-                                      np.ascontiguousarray(faces, dtype=np.int64),
-                                      np.ascontiguousarray(joints, dtype=np.float64))
-    inside = float(np.mean(np.abs(winding) >= 0.5))
-    return inside, {"inside": round(inside, 3)}

@@ -34,6 +34,9 @@ THINNEST_DEPTH = 3.0
 MIN_BONE_DEPTHS = 2.0      # times the limb's mean depth (its radius)
 MIN_BONE_LENGTH = 0.15     # of the limb's length from its base to its tip
 MIN_BONE_DIAGONAL = 0.025  # of the diagonal of the mesh's bounding box
+# A split joint sits at the soft minimum of the split error (``soft_split``): split points whose error is this
+# much (voxels) more than the least weigh 1/e as much as the best.
+SOFT_ERROR = 0.5
 
 
 def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tuple[np.ndarray, Template]:
@@ -44,10 +47,9 @@ def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tupl
         raise ValueError(f"max_segments must be at least 1, got {max_segments}")
     attached = np.zeros(len(tree.points), dtype=bool)
     attached[[int(p[0]) for p in tree.paths]] = True
-    # The grid spans the mesh's box plus one empty voxel all round: its diagonal in voxels, less that margin.
-    diagonal = float(np.linalg.norm(np.array(grid.inside.shape) - 2))
+    diagonal = grid.diagonal
     joint_of = {0: 0}                                         # tree point -> joint index
-    names, parents, points, chain_ends = ["root"], [-1], [0], []
+    names, parents, points, chain_ends = ["root"], [-1], [tree.points[0]], []
     for c, (path, base) in enumerate(zip(tree.paths, tree.bases), start=1):
         limb = tree.points[path[base:]]
         min_bone = max(MIN_BONE_DIAGONAL * diagonal, MIN_BONE_DEPTHS * float(tree.depth[path[base:]].mean()),
@@ -55,18 +57,21 @@ def control_skeleton(tree: PathTree, grid: VoxelGrid, max_segments: int) -> tupl
         keep = split_chain(tree.points[path], tree.depth[path], np.flatnonzero(attached[path]), max_segments,
                            base, min_bone)
         previous = joint_of[int(path[0])]
+        fixed = {0, len(path) - 1, base, *map(int, np.flatnonzero(attached[path]))}
         for k, i in enumerate(keep[1:], start=1):
             joint_of[int(path[i])] = len(names)
             names.append(f"chain{c}_joint{k}")
             parents.append(previous)
-            points.append(int(path[i]))
+            point = None if i in fixed else soft_split(tree.points[path], int(keep[k - 1]), int(keep[k + 1]),
+                                                       min_bone, base + 1)
+            points.append(tree.points[path[i]] if point is None else point)
             previous = len(names) - 1
         chain_ends.append((c, previous))
     parents = np.array(parents, dtype=np.int64)
     for c, j in chain_ends:
         if not np.any(parents == j):
             names[j] = f"chain{c}_end"
-    joints = grid.centres(tree.points[points])
+    joints = grid.centres(np.array(points))
     template = Template(name="auto", names=tuple(names), parents=parents, positions=joints, symmetry=(),
                         feet=(), fat=())
     return joints, template
@@ -112,6 +117,16 @@ def segment_error(points: np.ndarray, a: int, b: int) -> float:
 def best_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0, first: int = 0) -> int | None:
     """The index k in (a, b) that minimises max(error of bone a -> k, error of bone k -> b), among those at
     least min_bone from both ends and not before ``first`` (None if there is none)."""
+    worst, allowed = split_errors(points, a, b, min_bone, first)
+    if not allowed.any():
+        return None
+    return a + int(np.argmin(np.where(allowed, worst, np.inf)))
+
+
+def split_errors(points: np.ndarray, a: int, b: int, min_bone: float = 0.0,
+                 first: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(worst [b - a + 1]: max(error of bone a -> k, error of bone k -> b) for each k in a..b, allowed
+    [b - a + 1]: the k at least min_bone from both ends, strictly between them and not before ``first``)."""
     q = points[a:b + 1]
     m = len(q)
     # head[i, k]: distance of point i from the bone a -> k, counted for i <= k; tail likewise for k -> b.
@@ -122,9 +137,23 @@ def best_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0, first:
     allowed = (np.linalg.norm(q - q[0], axis=1) >= min_bone) & (np.linalg.norm(q - q[-1], axis=1) >= min_bone)
     allowed[[0, -1]] = False
     allowed[:max(first - a, 0)] = False
+    return worst, allowed
+
+
+def soft_split(points: np.ndarray, a: int, b: int, min_bone: float = 0.0, first: int = 0) -> np.ndarray | None:
+    """The joint between bones a -> . -> b placed by a soft minimum of the split error along the path: the
+    point at the weighted mean arc length of the allowed split points (``split_errors``), each weighted by
+    exp(-(its error - the least) / SOFT_ERROR). Where two split points fit almost equally well (a straight
+    stretch, a gentle bend), the least change of the path would flip the best one; this moves only a little.
+    None when no split point is allowed."""
+    worst, allowed = split_errors(points, a, b, min_bone, first)
     if not allowed.any():
         return None
-    return a + int(np.argmin(np.where(allowed, worst, np.inf)))
+    q = points[a:b + 1]
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+    weight = np.where(allowed, np.exp(-(worst - worst[allowed].min()) / SOFT_ERROR), 0.0)
+    t = float(weight @ arc / weight.sum())
+    return np.array([np.interp(t, arc, q[:, c]) for c in range(3)])
 
 
 def _distances_to_segment(x: np.ndarray, head: np.ndarray, tail: np.ndarray) -> np.ndarray:

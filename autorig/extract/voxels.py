@@ -1,10 +1,11 @@
 """Stages 1 and 2 of the template-free skeleton: voxelize the solid, then its Euclidean distance map (EDM).
 
-The grid is a box of equal cubes around the mesh in the canonical frame, ``resolution`` cells along the box's
-longest side and one empty layer of cells all round, so that every inside voxel has its 26 neighbours in the
-grid. A voxel is inside when the generalized winding number at its centre is at least 1/2 in magnitude: this
-gives open, self-intersecting and multi-part meshes a meaningful inside, and the magnitude (not the sign)
-keeps parts that face inward solid.
+The grid is a box of equal cubes around the mesh in the canonical frame, the box's longest side ``resolution``
+cells long, with at least one empty layer of cells all round (so that every inside voxel has its 26 neighbours
+in the grid) and an odd number of cells along each axis, centred on the middle of the mesh's box. A voxel is
+inside when the generalized winding number at its centre is at least 1/2 in magnitude: this gives open,
+self-intersecting and multi-part meshes a meaningful inside, and the magnitude (not the sign) keeps parts that
+face inward solid.
 """
 from __future__ import annotations
 
@@ -24,10 +25,18 @@ class VoxelGrid:
     origin  [3] canonical position of the centre of voxel (0, 0, 0)
     step    edge length of a voxel, canonical units (the mesh is one unit tall)
     inside  [X, Y, Z] bool, voxels whose centre is inside the solid; the outermost layer is always False
+    extent  [3] the size of the mesh's bounding box, in voxels (None: the grid's, less its margin)
     """
     origin: np.ndarray
     step: float
     inside: np.ndarray
+    extent: np.ndarray | None = None
+
+    @property
+    def diagonal(self) -> float:
+        """The diagonal of the mesh's bounding box, in voxels."""
+        extent = self.extent if self.extent is not None else np.array(self.inside.shape) - 2
+        return float(np.linalg.norm(extent))
 
     def centres(self, index: np.ndarray) -> np.ndarray:
         """Canonical positions [N, 3] of the centres of voxels index [N, 3] (integer grid coordinates)."""
@@ -45,8 +54,12 @@ def voxelize(vertices: np.ndarray, faces: np.ndarray, resolution: int) -> VoxelG
         raise ValueError(f"voxel resolution must be at least 8, got {resolution}")
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     step = float((hi - lo).max()) / resolution
-    counts = np.ceil((hi - lo) / step).astype(np.int64) + 2          # +1 cell of margin on each side
-    # Centre the box on the mesh, so a symmetric mesh gets a symmetric voxelization.
+    # An odd count along each axis, the mesh's extent and at least one cell of margin on each side, centred on
+    # the middle of the mesh's box: a voxel centre sits at the middle, so a mirror-symmetric mesh has its plane
+    # of symmetry through a layer of voxel centres (not between two layers, where which of the two holds its
+    # medial surface is a tie the least change of the mesh flips), and the lattice moves with the mesh as it
+    # moves: rounding that adds a cell adds one on each side, never shifts the others by half a cell.
+    counts = 2 * np.ceil((hi - lo) / (2 * step)).astype(np.int64) + 3
     origin = (lo + hi) / 2 - step * (counts - 1) / 2
     inside = _inside(np.ascontiguousarray(vertices, dtype=np.float64), np.ascontiguousarray(faces, dtype=np.int64),
                      origin, step, counts)
@@ -55,7 +68,7 @@ def voxelize(vertices: np.ndarray, faces: np.ndarray, resolution: int) -> VoxelG
     if not inside.any():
         raise RigFailedError(f"no voxel centre is inside the mesh at {resolution} voxels: it is thinner than a "
                              f"voxel, or not closed; use more voxels")
-    return VoxelGrid(origin, step, inside)
+    return VoxelGrid(origin, step, inside, (hi - lo) / step)
 
 
 def _inside(vertices: np.ndarray, faces: np.ndarray, origin: np.ndarray, step: float, counts: np.ndarray) -> np.ndarray:

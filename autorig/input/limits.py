@@ -14,7 +14,7 @@ from ..errors import InputError
 
 # Default of --max-faces: five times the largest mesh the speed table measures (1M faces, ~1 GB).
 MAX_FACES = 5_000_000
-# Peak memory per input face of a whole rig: ~0.96 GB at 1M faces (README's speed table), rounded up.
+# Peak memory per input face of a whole rig: ~0.96 GB at 1M faces (the guide's speed table, docs/speed.md), rounded up.
 BYTES_PER_FACE = 1_100
 # Peak memory per byte of a mesh file while it is read: the bytes, their text, its lines and the parsed arrays.
 BYTES_PER_FILE_BYTE = 6

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .confine import Dropped
 from ..errors import InputError
-from .mesh_files import obj_text
 from ..result import Image, Look
+from .confine import Dropped
+from .mesh_files import obj_text
 
 __all__ = ["load_look", "matching_look", "material_files"]
 

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AutorigError, InputError
-from .limits import MAX_FACES, check_faces, check_file_size
 from .facing import face_cross, outward, used_vertices
+from .limits import MAX_FACES, check_faces, check_file_size
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
 
 # A mesh whose points all lie within this fraction of its size from one plane is a 2D cut-out.

@@ -163,15 +163,47 @@ def _read_gltf(path: Path) -> Example:
                    key_of={n: i for i, n in enumerate(rig.names)})
 
 
+def read_mapped_gltf(path: Path, map_file: Path, base: Template) -> Example | None:
+    """The rigged glTF file ``path`` with the template map of ``map_file`` (a JSON object as a corpus
+    ``joints.json`` without its joints: ``<template>_map`` {template joint: the file's joint name or null},
+    ``up_axis``/``front_axis`` (default +y/+z, glTF's), ``source_group``), e.g. ``data/maps/openclonk_wipf.json``.
+    None when the map names none of the base template's joints."""
+    try:
+        meta = json.loads(Path(map_file).read_text())
+        if not isinstance(meta, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as e:
+        raise InputError(f"{map_file}: not a template map ({e})") from None
+    example = _read_gltf(Path(path))
+    index = {n: i for i, n in enumerate(example.names)}
+    mapping = _best_map(meta, base, index)
+    if mapping is None:
+        return None
+    example.name = str(meta.get("name") or example.name)
+    example.up, example.front = (_axis(meta.get(k, d), map_file) for k, d in (("up_axis", "+y"),
+                                                                             ("front_axis", "+z")))
+    example.key_of = {k: index[v] for k, v in mapping.items()}
+    example.meta = meta
+    from .conventions import source_of
+    example.source = source_of(example, Path(path))
+    return example
+
+
 def read_examples(paths, base: Template | None = None) -> list[Example]:
-    """Every example under ``paths`` (see ``expand``) that has the base template's joints."""
+    """Every example under ``paths`` (see ``expand``) that has the base template's joints; an ``Example``
+    among them (``read_mapped_gltf``'s) is taken as it is."""
     from .conventions import source_of
     examples = []
-    for path in expand(paths):
-        example = read_example(path, base)
-        if example is not None:
-            example.source = source_of(example, path)
-            examples.append(example)
+    for item in paths:
+        if isinstance(item, Example):
+            item.source = item.source or source_of(item)
+            examples.append(item)
+            continue
+        for path in expand([item]):
+            example = read_example(path, base)
+            if example is not None:
+                example.source = source_of(example, path)
+                examples.append(example)
     if len(examples) < 2:
         raise InputError(f"learning a template needs at least two rigged characters, found {len(examples)}")
     return examples

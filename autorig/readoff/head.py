@@ -15,8 +15,8 @@ and the joint goes to (x, deepest + m * depth, tip - k * (tip - paws)), k and m 
 (``learn_head``), unless the embedding's head chain ended within ``REACHED`` of the snout: there its head was
 as near its artist's as the rule's or nearer (cow, giraffe, goat, wildebeest: 7-9 % against 12-17 %). The share k is the animal's own length of head and neck in one number: an absolute distance
 behind the snout (a head of one size for every animal) or one in trunk depths rigged the corpus's held-out
-species worse (14.9 and 9.8 % mean against 7.7 % with the artists' paws, see the README). The neck, when it no
-longer sits between the chest and the new head along the back, goes half-way between them.
+species worse (14.9 and 9.8 % mean against 7.7 % with the artists' paws, see docs/tutorials/learn.md). The
+neck, when it no longer sits between the chest and the new head along the back, goes half-way between them.
 The template's ``legs`` carries the rule as ``{"head": {"snout": [k, m]}}``; a template without it, or a mesh
 whose snout or head column cannot be measured, keeps its joints.
 """

@@ -16,7 +16,7 @@ legs' roots), over a grid of ``STEP``:
 
 and the joint goes to (x, middle + m * trunk, end + k * trunk), k and m the medians over the examples
 (``learn_rump``). Cross-validated over the corpus's species groups (``benchmarks/cross_validation.py``) the
-tail base's error fell from 14.3 % of the height on average (the box's) to 8.7 % (see the README).
+tail base's error fell from 14.3 % of the height on average (the box's) to 8.7 % (docs/tutorials/learn.md).
 The template's ``legs`` carries the rule as ``{"tail_base": {"rump": [k, m]}}``; a template without it, or a
 mesh whose rump cannot be measured (no legs, no trunk deeper than the grid's step), keeps its joint.
 """

@@ -28,8 +28,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..exchange.bvh import Motion
-from ..input.mesh import frame_rotation
 from ..hands.names import motion_names as finger_motion_names
+from ..input.mesh import frame_rotation
 from ..naming import template_names
 from ..result import Rig
 

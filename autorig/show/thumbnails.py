@@ -15,8 +15,8 @@ from io import BytesIO
 import numpy as np
 
 from ..input.mesh import frame_rotation
-from .preview import choose_views, joint_colours, simplified
 from ..result import Rig
+from .preview import choose_views, joint_colours, simplified
 
 __all__ = ["render_thumbnails"]
 
