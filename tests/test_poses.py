@@ -1,0 +1,103 @@
+"""The posing of ``benchmarks/poses.py`` on the sample mannequin (skinned to its nearest joints): the mesh keeps
+its vertices, each posed bone points where the pose asks with its length kept, joints the pose leaves alone stay,
+and the benchmark's verdict on structure."""
+from __future__ import annotations
+
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from poses import ANATOMY, POSES, pose_character, score_ends  # noqa: E402
+
+from autorig.samples import mannequin  # noqa: E402
+from autorig.template import load_template  # noqa: E402
+
+LEFT, UP, FRONT = np.eye(3)          # the mannequin: +x its left, +y up, +z front
+
+
+@lru_cache(maxsize=1)
+def character():
+    """(joints.json-like meta, vertices, weights): the arms-down mannequin with the biped's joints, each vertex
+    weighted to its nearest joint."""
+    sample = mannequin("down", resolution=40)
+    template = load_template("biped")
+    names = list(template.names)
+    joints = [{"name": n, "parent": names[p] if p >= 0 else None, "position": [float(v) for v in sample.joints[n]]}
+              for n, p in zip(names, template.parents)]
+    positions = np.array([sample.joints[n] for n in names])
+    nearest = np.argmin(np.linalg.norm(sample.vertices[:, None] - positions[None], axis=2), axis=1)
+    weights = np.zeros((len(sample.vertices), len(names)))
+    weights[np.arange(len(nearest)), nearest] = 1.0
+    meta = {"name": "mannequin", "joints": joints, "up_axis": "+y", "front_axis": "+z",
+            "biped_map": {n: n for n in names if not n.endswith("_end")},
+            "height_along_up": float(np.ptp(sample.vertices[:, 1]))}
+    return meta, sample.vertices, weights
+
+
+@pytest.mark.parametrize("pose", list(POSES))
+def test_a_posed_mannequin_keeps_its_vertices_and_bones_and_points_them_as_asked(pose):
+    meta, vertices, weights = character()
+    posed_v, posed = pose_character(meta, vertices, weights, pose)
+    names = [j["name"] for j in meta["joints"]]
+    rest = np.array([j["position"] for j in meta["joints"]])
+    at = dict(zip(names, posed))
+    assert posed_v.shape == vertices.shape and np.all(np.isfinite(posed_v))
+    parents = {j["name"]: j["parent"] for j in meta["joints"]}
+    for n, p in parents.items():          # every bone keeps its length
+        if p is not None:
+            assert np.linalg.norm(at[n] - at[p]) == pytest.approx(
+                np.linalg.norm(rest[names.index(n)] - rest[names.index(p)]), rel=1e-9)
+    for side, bones in POSES[pose].items():
+        outward = LEFT if side == "left" else -LEFT
+        for (a, b), (o, u, f) in bones:
+            bone = at[f"{side}_{b}"] - at[f"{side}_{a}"]
+            asked = o * outward + u * UP + f * FRONT
+            assert bone @ asked / np.linalg.norm(bone) / np.linalg.norm(asked) > 0.9999, (side, a, b)
+    for n in ("hips", "spine", "chest", "neck", "head"):          # the trunk and head stay where they were
+        assert np.allclose(at[n], rest[names.index(n)])
+    # A vertex skinned wholly to a wrist moves rigidly with it.
+    wrist = names.index("left_wrist")
+    v = np.flatnonzero(weights[:, wrist] == 1.0)[0]
+    assert np.linalg.norm(posed_v[v] - at["left_wrist"]) == pytest.approx(
+        np.linalg.norm(vertices[v] - rest[wrist]), rel=1e-9)
+
+
+def test_arms_bent_puts_the_forearms_across_the_chest_and_the_stride_splits_the_knees():
+    meta, vertices, weights = character()
+    _, arms = pose_character(meta, vertices, weights, "arms bent")
+    names = [j["name"] for j in meta["joints"]]
+    at = dict(zip(names, arms))
+    for side in ("left", "right"):
+        upper = at[f"{side}_elbow"] - at[f"{side}_shoulder"]
+        fore = at[f"{side}_wrist"] - at[f"{side}_elbow"]
+        assert abs(upper @ fore) / np.linalg.norm(upper) / np.linalg.norm(fore) < 1e-6    # a right angle
+        assert abs(at[f"{side}_wrist"][0]) < 0.5 * abs(at[f"{side}_elbow"][0])           # inward
+        assert at[f"{side}_wrist"][2] > at["chest"][2] + 0.1                               # in front
+    _, stride = pose_character(meta, vertices, weights, "stride")
+    at = dict(zip(names, stride))
+    assert at["left_knee"][2] > at["hips"][2] + 0.05 > at["right_knee"][2] + 0.05
+    assert at["left_ankle"][1] > 0 and at["left_ankle"][1] < at["left_knee"][1]
+
+
+def test_the_verdict_on_structure_names_the_ends_in_the_wrong_place():
+    meta, vertices, weights = character()
+    _, posed = pose_character(meta, vertices, weights, "idle")
+    names = [j["name"] for j in meta["joints"]]
+    posed_meta = {**meta, "joints": [{**j, "position": list(p)} for j, p in zip(meta["joints"], posed)]}
+    right = score_ends(posed_meta, names, posed)
+    assert right["structure"] and right["wrong"] == [] and set(right["errors"]) == set(ANATOMY)
+    assert max(right["errors"].values()) == pytest.approx(0.0)
+    swapped = posed.copy()
+    swapped[[names.index("left_ankle"), names.index("right_ankle")]] = \
+        posed[[names.index("right_ankle"), names.index("left_ankle")]]
+    wrong = score_ends(posed_meta, names, swapped)
+    assert not wrong["structure"] and wrong["wrong"] == ["left_ankle at right_ankle", "right_ankle at left_ankle"]
+    far = posed.copy()
+    far[names.index("head")] += 0.2 * meta["height_along_up"] * UP
+    assert score_ends(posed_meta, names, far)["wrong"] == ["head"]
