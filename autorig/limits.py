@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import InputError
+from .errors import InputError, RigFailedError
 
 # Default of --max-faces: five times the largest mesh the speed table measures (1M faces, ~1 GB).
 MAX_FACES = 5_000_000
@@ -18,6 +18,40 @@ MAX_FACES = 5_000_000
 BYTES_PER_FACE = 1_100
 # Peak memory per byte of a mesh file while it is read: the bytes, their text, its lines and the parsed arrays.
 BYTES_PER_FILE_BYTE = 6
+# Work budgets of the stages a small but pathological shape (a random triangle soup, whose surface fills its
+# box) can blow up: the shared characters need at most ~100,000 distance-field points and ~350 medial spheres;
+# past four to six times that the shape is not a character's skin, and the rig stops with exit 5 rather than
+# take minutes and gigabytes (a 600-triangle soup: 676,000 points, 9,006 spheres, 290 s).
+MAX_FIELD_POINTS = 400_000
+MAX_SPHERES = 2_000
+# Distance and winding-number queries cost in proportion to how many triangles' boxes overlap a point: the sum
+# of the triangles' bounding-box areas over the mesh's is 2-7 for the shared characters' working copies, 28-511
+# for random soups of 100-2,000 triangles (where one query visits most triangles: 400,000 points take minutes).
+MAX_LAYERS = 20.0
+
+
+def over_budget(what: str, count: int, limit: int) -> RigFailedError:
+    """The error of a stage whose work (``count`` of ``what``) passes its budget ``limit``."""
+    return RigFailedError(f"could not rig: the shape needs more than {limit:,} {what} ({count:,}); its surface "
+                          f"fills its box like a random triangle soup, not the closed skin of a character")
+
+
+def check_layers(vertices, faces) -> None:
+    """Refuse, before the distance field, a working mesh whose triangles' boxes overlap more than
+    ``MAX_LAYERS`` deep (see above): a soup of large crossing triangles, not a surface."""
+    import numpy as np
+    corners = vertices[faces]
+    extent = corners.max(axis=1) - corners.min(axis=1)
+    box = vertices.max(axis=0) - vertices.min(axis=0)
+
+    def area(e):
+        return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 0] * e[..., 2]
+
+    layers = float(area(extent).sum() / max(area(box), 1e-300))
+    if layers > MAX_LAYERS:
+        raise RigFailedError(f"could not rig: its triangles' boxes overlap {layers:.0f} deep (a character's "
+                             f"skin: under {MAX_LAYERS:.0f}); large crossing triangles, like a random soup, "
+                             f"would take minutes to measure")
 
 
 def check_faces(count: int, max_faces: int | None, name: str) -> None:

@@ -153,6 +153,7 @@ def discretize(prepared, stage=None):
     the stages the embedding needs, shared by ``rig`` and the learner (``autorig.learn``)."""
     from .distance import distance_field
     from .graph import sphere_graph
+    from .limits import MAX_SPHERES, over_budget
     from .medial import medial_samples, pack_spheres
 
     stage = stage or _stage_timer({})
@@ -160,6 +161,8 @@ def discretize(prepared, stage=None):
         field = distance_field(*prepared.coarse())
     with stage("medial spheres"):
         spheres = pack_spheres(medial_samples(field), min_radius=field.finest)
+        if len(spheres.radii) > MAX_SPHERES:  # the graph, orientation and search grow with their square
+            raise over_budget("medial spheres", len(spheres.radii), MAX_SPHERES)
     with stage("sphere graph"):
         graph = sphere_graph(field, spheres)
     return field, graph
