@@ -8,6 +8,9 @@ there is becomes an ``InputError`` (exit 2, one line), never a ``MemoryError`` o
 """
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from pathlib import Path
 
 from .errors import InputError, RigFailedError
@@ -18,6 +21,9 @@ MAX_FACES = 5_000_000
 BYTES_PER_FACE = 1_100
 # Peak memory per byte of a mesh file while it is read: the bytes, their text, its lines and the parsed arrays.
 BYTES_PER_FILE_BYTE = 6
+# The most bytes read from one file that a mesh names (an MTL, a texture, a glTF buffer or image): larger
+# ones are refused as unreadable (left out, or exit 2 for a buffer).
+MAX_FILE_BYTES = 512 << 20
 # Work budgets of the stages a small but pathological shape (a random triangle soup, whose surface fills its
 # box) can blow up: the shared characters need at most ~100,000 distance-field points and ~350 medial spheres;
 # past four to six times that the shape is not a character's skin, and the rig stops with exit 5 rather than
@@ -34,6 +40,40 @@ def over_budget(what: str, count: int, limit: int) -> RigFailedError:
     """The error of a stage whose work (``count`` of ``what``) passes its budget ``limit``."""
     return RigFailedError(f"could not rig: the shape needs more than {limit:,} {what} ({count:,}); its surface "
                           f"fills its box like a random triangle soup, not the closed skin of a character")
+
+
+def read_regular(path, limit: int | None = MAX_FILE_BYTES) -> bytes:
+    """The bytes of the regular file ``path``, at most ``limit`` of them (None: the memory's); a FIFO, a device,
+    a socket or a folder is refused before it is opened for reading (it could block for ever or never end),
+    and so is a file larger than ``limit``: ``OSError`` (its ``strerror`` says why) like any unreadable file."""
+    kind = _kind(os.stat(path).st_mode)
+    if kind:
+        raise OSError(errno.EINVAL, f"not a regular file ({kind})", str(path))
+    # O_NONBLOCK: were it swapped for a FIFO since, opening would not wait for a writer.
+    descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    with os.fdopen(descriptor, "rb") as f:
+        info = os.fstat(descriptor)
+        kind = _kind(info.st_mode)
+        if kind:
+            raise OSError(errno.EINVAL, f"not a regular file ({kind})", str(path))
+        if limit is not None and info.st_size > limit:
+            raise OSError(errno.EFBIG, f"{info.st_size / 2**20:,.0f} MB, more than the {limit >> 20} MB read "
+                                       f"from one file", str(path))
+        if limit is None:
+            check_memory(info.st_size, f"a file of {info.st_size / 1e9:.1f} GB", str(path))
+        data = f.read(info.st_size if limit is None else min(info.st_size, limit) + 1)
+    if limit is not None and len(data) > limit:
+        raise OSError(errno.EFBIG, f"more than the {limit >> 20} MB read from one file", str(path))
+    return data
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular one is ("" for a regular file)."""
+    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "" if stat.S_ISREG(mode) else "not a file"
 
 
 def check_layers(vertices, faces) -> None:

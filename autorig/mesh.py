@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import AutorigError, InputError
-from .limits import MAX_FACES, check_faces, check_file_size
+from .limits import MAX_FACES, check_faces, check_file_size, read_regular
 from .facing import face_cross, outward, used_vertices
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
 
@@ -71,7 +71,7 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
     check_file_size(path)
     if suffix in (".obj", ".off"):
         try:
-            data = path.read_bytes()
+            data = read_regular(path, None)
         except OSError as e:
             raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
         if suffix == ".obj":  # every polygon line is one triangle or more
@@ -96,6 +96,8 @@ def check_mesh_path(path: str | Path) -> Path:
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not a mesh file")
+    if not path.is_file():  # a FIFO would block its reader for ever, a device never end
+        raise InputError(f"{path}: not a regular file (a FIFO, device or socket), not a mesh file")
     if path.suffix.lower() not in FORMATS:
         known = ", ".join(sorted(FORMATS))
         raise InputError(f"{path}: unknown mesh format {path.suffix or '(no extension)'!r}; autorig reads {known}")

@@ -134,7 +134,7 @@ from .report import write_json_report, write_junit_report
 from .result import EXIT_SOME_FAILED, AssetResult, BatchResult
 from .store import (MANIFEST_INTERVAL, MANIFEST_NAME, THUMBNAILS_FOLDER, check_writable, kept_result, make_parent,
                     read_manifest, store_outcome, write_manifest)
-from .worker import Job, cpu_count, require_thumbnails, run_locally
+from .worker import Job, cpu_count, remove_stale_scratch, require_thumbnails, run_locally
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
@@ -206,6 +206,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     # One batch at a time in an output folder; what a killed one left half-written goes first (batch/lock.py).
     with output_lock(output_dir):
         remove_temporaries(output_dir)
+        remove_stale_scratch()
         plans = plan_assets(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options, names)
         manifest_path = output_dir / MANIFEST_NAME
         manifest = read_manifest(manifest_path)
@@ -255,6 +256,9 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                 except InputError as e:  # unreadable, or gone since it was found
                     finished(plan, {"status": "failed", "remember": False, "error": str(e),
                                     "error_type": "InputError"})
+                except Exception as e:  # a bug reading this asset: it fails alone, the batch goes on
+                    finished(plan, {"status": "failed", "remember": False, "error_type": type(e).__name__,
+                                    "error": f"{plan.rel}: internal error: {type(e).__name__}: {e}"})
 
         try:
             if todo:

@@ -22,6 +22,7 @@ import pygltflib
 from pygltflib import GLTF2, Image as GltfImage, Material, Mesh, Node, Primitive, Sampler, Texture
 
 from ..confine import Dropped, Refused, image_problem, uri_file
+from ..limits import read_regular
 from ..result import Image, Look
 from .gltf_parts import data_uri_bytes
 
@@ -233,7 +234,7 @@ def _image_bytes(doc: GLTF2, buffers: list[bytes], image: GltfImage, path: Path,
         raise ValueError("an image has neither a bufferView nor a uri")
     if image.uri.startswith("data:"):
         return data_uri_bytes(image.uri)
-    return uri_file(image.uri, path.parent, path.parent, allow_outside).read_bytes()
+    return read_regular(uri_file(image.uri, path.parent, path.parent, allow_outside))
 
 
 def image_mime_type(data: bytes) -> str:

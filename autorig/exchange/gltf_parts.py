@@ -15,7 +15,7 @@ from pygltflib import GLTF2, Buffer, Node
 
 from ..confine import Refused, uri_file
 from ..errors import InputError
-from ..limits import check_memory
+from ..limits import check_memory, read_regular
 
 _COMPONENT_DTYPES = {
     pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
@@ -29,7 +29,7 @@ _TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 
 
 def file_bytes(path: Path) -> bytes:
     try:
-        return path.read_bytes()
+        return read_regular(path, None)
     except OSError as e:
         raise InputError(f"cannot read {path}: {e.strerror or e}") from None
 
@@ -126,11 +126,12 @@ def buffer_data(doc: GLTF2, buffer: Buffer, path: Path, allow_outside: bool = Fa
     except Refused as e:
         shown = buffer.uri if len(buffer.uri) <= 200 else buffer.uri[:60] + "..."
         raise InputError(f"{path}: buffer {shown}: {e}") from None
-    if not file.is_file():  # a FIFO or a device would never end
-        raise ValueError(f"buffer {buffer.uri} is not a file")
+    try:  # a FIFO or a device would never end
+        data = read_regular(file)
+    except OSError as e:
+        raise ValueError(f"buffer {buffer.uri}: {e.strerror or e}") from None
     length = buffer.byteLength if isinstance(buffer.byteLength, int) and buffer.byteLength >= 0 else -1
-    with open(file, "rb") as f:
-        return f.read(length)
+    return data if length < 0 else data[:length]
 
 
 def data_uri_bytes(uri: str) -> bytes:

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, SkeletonError
+from ..limits import read_regular
 from ..result import JointNodes
 from .arrays import parents_first
 
@@ -61,7 +62,7 @@ def read_skeleton(path: str | os.PathLike) -> Skeleton:
         raise SkeletonError(f"skeleton {path}: unknown skeleton format {suffix or '(no extension)'!r}; "
                             f"autorig reads {', '.join(SKELETON_FORMATS)}")
     try:
-        data = path.read_bytes()
+        data = read_regular(path, None)
     except OSError as e:
         raise SkeletonError(f"skeleton {path}: cannot read ({e.strerror or e})") from None
     if suffix == ".json":
