@@ -77,7 +77,10 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
         if suffix == ".obj":  # every polygon line is one triangle or more
             check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
         text = as_text(data, path, FORMATS[suffix])
-        vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+        try:
+            vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+        except OverflowError:  # "f 1 2 99999999999999999999999"
+            raise InputError(f"{path}: a face index too large for any mesh") from None
     elif suffix in (".glb", ".gltf"):
         from .exchange.gltf import read_gltf_scene
         vertices, faces, _ = read_gltf_scene(path, allow_outside, max_faces, look=False)

@@ -199,6 +199,8 @@ def parse_off(text: str, path: Path, max_faces: int | None = None) -> tuple[np.n
             raise _bad_line(path, n, "malformed face") from None
         if k < 3 or len(corners) < k:
             raise _bad_line(path, n, "a face needs a vertex count of at least 3 and that many indices")
+        if k > max(n_vertices, 3):  # a million corners among a few hundred vertices: a million triangles of noise
+            raise _bad_line(path, n, f"a face of {k:,} corners, more than the file's {n_vertices:,} vertices")
         faces.extend((corners[0], corners[i], corners[i + 1]) for i in range(1, k - 1))
     return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
             np.array(faces, dtype=np.int64).reshape(-1, 3))

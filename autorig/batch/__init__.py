@@ -272,7 +272,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start)
         for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
             if path is not None:
-                make_parent(Path(path))
+                make_parent(Path(path), output_dir)
                 write(result, path)
         return result
 

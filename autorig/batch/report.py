@@ -46,6 +46,7 @@ def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
     name its file), ``<failure>`` for an asset without a rig, ``<skipped>`` for an unchanged rigged asset."""
     import xml.etree.ElementTree as ET
 
+    from ..errors import printable
     from ..exchange import write_file_atomic
 
     failures = sum(a.failed for a in result.assets)
@@ -71,5 +72,9 @@ def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
             out.text = f"{asset.template} -> {asset.output}" + (
                 f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "") + (
                 f", rest pose {asset.rest_pose} ({asset.arm_angle:.0f} deg)" if asset.rest_pose else "")
+    for element in suites.iter():  # XML 1.0 holds no control characters but tab and newline, nor lone surrogates
+        element.attrib = {key: printable(value) for key, value in element.attrib.items()}
+        if element.text:
+            element.text = printable(element.text)
     ET.indent(suites)
     write_file_atomic(path, ET.tostring(suites, encoding="utf-8", xml_declaration=True) + b"\n")

@@ -44,7 +44,7 @@ def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRI
     """
     from ..exchange import write_file_atomic
     page = review_page(result, Path(os.path.abspath(path)).parent, low)
-    write_file_atomic(path, page.encode("utf-8"))
+    write_file_atomic(path, page.encode("utf-8", "backslashreplace"))  # a file name's undecodable bytes
 
 
 def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> list[AssetResult]:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import AutorigError, OutputError
+from ..errors import AutorigError, OutputError, printable
 from ..version import __version__
 
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
@@ -123,7 +123,7 @@ class DefaultCommandGroup(click.Group):
 
 def _error_line(message: str) -> None:
     """Print ``message`` on stderr as exactly one line, whatever newlines the message carries."""
-    click.echo(" ".join(message.split("\n")), err=True)
+    click.echo(printable(" ".join(message.split("\n"))), err=True)
 
 
 def _set_debug(ctx: click.Context, _param, value: bool) -> None:
