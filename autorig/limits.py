@@ -24,6 +24,9 @@ BYTES_PER_FILE_BYTE = 6
 # The most bytes read from one file that a mesh names (an MTL, a texture, a glTF buffer or image): larger
 # ones are refused as unreadable (left out, or exit 2 for a buffer).
 MAX_FILE_BYTES = 512 << 20
+# The most joints a --skeleton file may have: skin weights solve once per bone (a 10,000-joint file: 30 s
+# and more); production rigs, faces included, have a few hundred.
+MAX_JOINTS = 1_000
 # Work budgets of the stages a small but pathological shape (a random triangle soup, whose surface fills its
 # box) can blow up: the shared characters need at most ~100,000 distance-field points and ~350 medial spheres;
 # past four to six times that the shape is not a character's skin, and the rig stops with exit 5 rather than

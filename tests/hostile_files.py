@@ -199,6 +199,7 @@ def _escape_uri(d, folder):
 
 
 def _obj_family(text_of, name="hostile.obj", exits=frozenset({2})):
+    """A family: the box as OBJ, its text passed through ``text_of(text, folder, vertices)``."""
     def make(folder: Path):
         folder.mkdir(parents=True, exist_ok=True)
         V, F = _box()
@@ -337,7 +338,7 @@ FAMILIES = {
     "gltf-overlapping-stride": _gltf_family(_overlapping_stride),
     "gltf-draco-1e8": _gltf_family(_draco),
     "gltf-no-view-1e8": _gltf_family(_no_view),
-    "gltf-chain-100000": _gltf_family(_node_chain(100_000)),
+    "gltf-chain-100000": _gltf_family(_node_chain(100_000), exits={0, 5}),
     "gltf-scale-overflow": _gltf_family(_scale_overflow),
     "gltf-nan-position": _gltf_family(_nan_positions),
     "gltf-image-uri-int": _gltf_family(_image_uri_int, exits={0, 5}),
@@ -350,7 +351,7 @@ FAMILIES = {
     "obj-fifo-mtl": _obj_family(_fifo_mtl, exits={0, 5}),
     "obj-device-mtl": _obj_family(_device_mtl, exits={0, 5}),
     "obj-mtllib-2000": _obj_family(_mtl_2000, exits={0, 5}),
-    "obj-face-1e6-corners": _obj_family(_big_face),
+    "obj-face-1e6-corners": _obj_family(_big_face, exits={2, 5}),
     "obj-huge-index": _obj_family(_huge_index),
     "obj-nan-vertex": _obj_family(_nan_vertex),
     "off-face-1e6-corners": _off_family(_off_big_face),

@@ -105,7 +105,7 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     name = e(asset.input)
     if not asset.failed:
         link = os.path.relpath(os.path.abspath(output_dir / asset.output), page_dir)
-        name = f'<a href="{e(quote(Path(link).as_posix()))}">{name}</a>'
+        name = f'<a href="{e(quote(Path(link).as_posix(), errors="surrogateescape"))}">{name}</a>'
     axes = f" · up {asset.up} · front {asset.front}" if asset.up else ""
     lines = [f'<p class="what">{e(asset.template + axes)}</p>']
     if asset.confidence is not None:
