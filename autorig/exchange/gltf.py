@@ -362,7 +362,8 @@ def _declared_triangles(doc: GLTF2, mesh_nodes: list[int]) -> int:
                 total += int(doc.accessors[source].count) // 3
                 # Vertices too: an accessor without a buffer view is zeros of any count the file says.
                 total = max(total, max((int(doc.accessors[a].count) // 3 for a in vars(primitive.attributes).values()
-                                        if isinstance(a, int) and 0 <= a < len(doc.accessors)), default=0))
+                                        if isinstance(a, int) and 0 <= a < len(doc.accessors)
+                                        and doc.accessors[a].bufferView is None), default=0))
     return total
 
 
