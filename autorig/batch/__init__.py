@@ -96,7 +96,10 @@ Files from the asset's own folder
 Failures
     One failing asset never stops the batch: it gets status ``failed`` and its one-line error (so does one
     that asks for Pinocchio output with a skeleton of several roots, which that format cannot hold). An asset
-    that rigged before and fails now loses its old output, which no longer matches its input.
+    that rigged before and fails now loses its old output, which no longer matches its input. Each asset is
+    planned, read and rigged on its own: whatever its reader does, it fails alone; a local worker gives it at
+    most ``worker.ASSET_SECONDS`` (600 s) and ``worker.ASSET_MEMORY`` (8 GB of address space), and ends with
+    the batch however the batch ends (``worker.start_worker``).
     ``BatchResult.exit_code`` is 0 when every asset is rigged (now or in an earlier run) and
     ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run.
 
