@@ -35,10 +35,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .distance import DistanceField
+from .discretize.distance import DistanceField
 from .embed.penalties import PROMINENCE, prominences
 from .embed.search import Embedding
-from .graph import SphereGraph
+from .discretize.graph import SphereGraph
 from .template import Template
 
 STRICT_THRESHOLD = 0.5
@@ -141,7 +141,7 @@ def posture_free_cost_per_bone(embedding: Embedding, graph: SphereGraph, templat
     if template.legs:
         # Nor, for a template whose legs are read off the mesh, the legs' length term: a short-legged animal's
         # legs are short in a right rig too (spot, a cartoon cow: cost per bone 0.60, of which its legs 0.34).
-        from .legs import legs_of
+        from .readoff.legs import legs_of
         feet = {chain[-1] for chain in legs_of(template)}
         for k in range(1, len(spheres)):
             if int(reduced.joints[k]) in feet:
@@ -165,7 +165,7 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
     if template.legs:
         # Legs read off the mesh are the animal's own: a short-legged one's are short in a right rig too (corpus
         # animals with their legs squeezed to 0.6 kept their rigs and lost a quarter of their confidence).
-        from .legs import legs_of
+        from .readoff.legs import legs_of
         read = {j for chain in legs_of(template) for j in chain[1:]}
         z = z[[c not in read for c in child]]
     return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],

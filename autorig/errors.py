@@ -1,4 +1,24 @@
-"""Errors a user can act on. The CLI prints ``str(error)`` as one line and exits with ``error.exit_code``."""
+"""Errors a user can act on. The CLI prints ``str(error)`` as one line and exits with ``error.exit_code``.
+
+``EXIT_CODES`` is the one table of autorig's exit codes: the README's table and every command's ``--help``
+(each listing the codes it can return) are made from it or checked against it (tests/test_messages.py).
+"""
+
+EXIT_CODES = {
+    0: "success",
+    1: "general error (batch --scheduler: the Dask cluster cannot run the batch)",
+    2: "bad input (mesh, rig, motion or map file), or a command-line usage error",
+    3: "unknown or malformed template, or a bad --skeleton file",
+    4: "output cannot be written",
+    5: "the mesh was read but could not be rigged",
+    6: "--strict: a doubtful result, nothing written (a rig's confidence below 0.5, or a motion that "
+       "drives too few of its joints)",
+    7: "batch: some assets could not be rigged (the others were; see the report)",
+    8: "batch --fail-on-doubtful: none failed, but some rigs are probably wrong (confidence below 0.5)",
+    9: "an optional package is missing: the message gives the pip install line",
+    70: "internal error (a bug: run with --debug and report it)",
+    130: "interrupted (Ctrl-C)",
+}
 
 
 class AutorigError(Exception):
@@ -34,6 +54,16 @@ class RigFailedError(AutorigError):
 class LowConfidenceError(AutorigError):
     """--strict: a rig was made but its confidence is below the threshold, so it was not written."""
     exit_code = 6
+
+
+class MissingPackageError(AutorigError):
+    """An optional package a feature needs is not installed; the message ends with the ``pip install`` line."""
+    exit_code = 9
+
+
+def missing_package(what: str, package: str, extra: str) -> MissingPackageError:
+    """"WHAT needs PACKAGE: pip install 'autorig[EXTRA]'", the one wording of a missing optional package."""
+    return MissingPackageError(f"{what} needs {package}: pip install 'autorig[{extra}]'")
 
 
 def printable(text: str) -> str:

@@ -11,20 +11,24 @@
                -> embed           A* over placements of the template's reduced skeleton
                -> place_on_paths  every template joint along the embedded paths
                -> refine          continuous optimisation of all joints
-               -> placement       a learned template's joints pulled towards it (``autorig.placement``)
+               -> placement       a learned template's joints pulled towards it (``autorig.embed.placement``)
                -> convention      the joints moved to where the chosen convention's artists put them
-                                  (``autorig.convention``)
-               -> legs            a four-legged template's leg joints read off the mesh's legs (``autorig.legs``)
+                                  (``autorig.embed.convention``)
+               -> legs            a four-legged template's leg joints read off the mesh's legs
+                                  (``autorig.readoff.legs``)
+               -> tips            an upright head's tip up to its crown (``autorig.readoff.crown``)
                -> hands           fingers read off the full-resolution hands: three joints and a tip per
                                   digit (``autorig.hands``), for templates with fingers or ``fingers=True``
-               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted)
+               -> bone_heat       skin weights for every input vertex (helper joints ride along, unweighted),
+                                  the head's bone heating from the base of the skull; separate pieces take
+                                  the weights of the body they sit on (``autorig.weights.pieces``)
                -> confidence      how much to trust the result
 
 ``skin`` is the same without the embedding, for the user's own skeleton (``autorig MESH --skeleton FILE``):
 
     mesh, skeleton file -> prepare    canonical scale, clean working copy
                         -> fit        a BVH's units to the mesh's (or a given scale)
-                        -> plan_heat  which bones heat: tips, cold bones, split bones (``autorig.bones``)
+                        -> plan_heat  which bones heat: tips, cold bones, split bones (``autorig.weights.bones``)
                         -> bone_heat  skin weights for every input vertex
 """
 from __future__ import annotations
@@ -36,21 +40,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .limits import MAX_FACES
+from .input.limits import MAX_FACES
 from .result import Rig
 
 
 @dataclass
 class RigOptions:
     """up, front: which input axis points up and which way the character faces (x|y|z|-x|-y|-z), or "auto"
-    to detect it (see ``autorig.orient``).
+    to detect it (see ``autorig.embed.orient``).
     voxels, max_segments: template "auto" only: grid cells along the longest side of the mesh, and the most
     bones per extracted chain, plus one for each chain hanging from it (see ``autorig.extract``).
-    convention: where the joints go by whose habit, of the template's conventions (``autorig.convention``);
+    convention: where the joints go by whose habit, of the template's conventions (``autorig.embed.convention``);
     None for the template's default.
     max_faces: a mesh of more triangles is refused (``InputError``) before it is read (None: no limit).
     allow_outside_paths: let a mesh file name textures, MTL files and buffers outside its own folder
-    (``autorig.confine``).
+    (``autorig.input.confine``).
     fingers: read fingers off the hands (``autorig.hands``) whatever the template says; a template with
     ``"fingers": true`` always gets them."""
     up: str = "auto"
@@ -71,14 +75,16 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         skeleton extracted from the shape itself (``autorig.extract``).
     Returns a ``Rig`` in the input's own coordinates, weights for every input vertex in input order.
     """
-    from .attach import bone_heat, start_heat_surface
+    from .weights.attach import bone_heat, start_heat_surface
     from .confidence import rig_confidence
-    from .convention import convention_named, convention_shift, in_convention
-    from .landmarks import neck_fraction
-    from .mesh import prepare
-    from .orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
-    from .placement import learned_placement
-    from .rest_pose import rest_pose
+    from .explain import confidence_reasons
+    from .embed.convention import convention_named, convention_shift, in_convention
+    from .readoff.crown import crown_tip, heat_joints, skull_base
+    from .readoff.landmarks import neck_fraction
+    from .input.mesh import prepare
+    from .embed.orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
+    from .embed.placement import learned_placement
+    from .readoff.rest_pose import rest_pose
     from .template import AUTO, Template, load_template
 
     options = options or RigOptions()
@@ -106,13 +112,15 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     with stage("convention"):
         joints = in_convention(joints, template, convention, field)
     if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
-        from .legs import read_legs, surface_of
-        from .head import read_head
-        from .rump import read_rump
+        from .readoff.legs import read_legs, surface_of
+        from .readoff.head import read_head
+        from .readoff.rump import read_rump
         with stage("legs"):
             joints = read_legs(joints, template, *surface_of(field))
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
             joints = read_head(joints, template, field.depth, surface_of(field)[0])
+    with stage("tips"):
+        joints = crown_tip(joints, template, prepared.vertices, field.depth)   # head_end up to the crown
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers
@@ -121,12 +129,17 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
             joints = fingers.moved_joints(template.names, joints)   # an arm short of its hand ends at it
     with stage("skin weights"):
         surface = heat_surface.result_for(prepared)
-        weights = (bone_heat(prepared.vertices, prepared.faces, joints, template.parents, surface=surface)
+        height = float(np.ptp(prepared.work_vertices[:, 1]))     # the canonical frame stands on y
+        # the head's bone heats from the base of the skull, wherever the head joint (its pivot) is
+        heat = heat_joints(joints, template, skull_base(joints, template, field.depth, prepared.work_vertices))
+        weights = (bone_heat(prepared.vertices, prepared.faces, heat, template.parents, surface=surface,
+                             height=height)
                    if fingers is None else
-                   skin_with_fingers(prepared.vertices, prepared.faces, joints, template.parents, template.names,
-                                     fingers, surface=surface))
+                   skin_with_fingers(prepared.vertices, prepared.faces, heat, template.parents, template.names,
+                                     fingers, surface=surface, height=height))
     with stage("confidence"):
         confidence, parts = rig_confidence(field, graph, embedding, template, joints)
+        reasons = confidence_reasons(field, graph, embedding, template, joints, parts, confidence)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.
     J = len(template.names)
     names, parents, body = template.with_helpers(joints)
@@ -141,7 +154,8 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
         info={"up": frame.up, "front": frame.front, "axes_detected": options.up == "auto" or options.front == "auto",
               "orientation_margin": round(frame.margin, 3), "confidence": round(confidence, 3),
-              "confidence_parts": parts, "embedding_penalty": round(float(embedding.cost), 4),
+              "confidence_parts": parts, "confidence_reasons": reasons,
+              "embedding_penalty": round(float(embedding.cost), 4),
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
               **dropped_info(look), **(fingers.info() if fingers is not None else {}),
@@ -149,12 +163,12 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
 
 
 def discretize(prepared, stage=None):
-    """(distance field, sphere graph) of a prepared mesh (``autorig.mesh.prepare``), in its canonical frame:
+    """(distance field, sphere graph) of a prepared mesh (``autorig.input.mesh.prepare``), in its canonical frame:
     the stages the embedding needs, shared by ``rig`` and the learner (``autorig.learn``)."""
-    from .distance import distance_field
-    from .graph import sphere_graph
-    from .limits import MAX_SPHERES, over_budget
-    from .medial import medial_samples, pack_spheres
+    from .discretize.distance import distance_field
+    from .discretize.graph import sphere_graph
+    from .discretize.medial import medial_samples, pack_spheres
+    from .input.limits import MAX_SPHERES, over_budget
 
     stage = stage or _stage_timer({})
     with stage("distance field"):
@@ -174,13 +188,14 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     ``rig`` and the learner's calibration rigs (``autorig.learn.calibrate``), which search with a smaller budget
     (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
     from .embed import embed
-    from .refine import place_on_paths, refine
+    from .embed.refine import place_on_paths, refine
+    from .readoff.tips import surface_for
 
     stage = stage or _stage_timer({})
     with stage("embedding"):
         embedding = embed(graph, template, max_expansions)
     with stage("refinement"):
-        joints = refine(field, place_on_paths(graph, embedding, template), template)
+        joints = refine(field, place_on_paths(graph, embedding, template, surface_for(field)), template)
     return embedding, joints
 
 
@@ -188,7 +203,7 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
 class SkinOptions:
     """scale: how the skeleton file's positions become the mesh's: a number multiplies them (the mesh's units
     per file unit), "auto" scales and moves the skeleton to fit the mesh's bounding box (see
-    ``autorig.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
+    ``autorig.weights.bones.fit_to_mesh``); None means "auto" for a BVH file (motion capture units rarely match a
     mesh's) and 1 for JSON and glTF skeletons (taken as they are, in the mesh's coordinates). Anything else
     (zero, negative, not a number) is an ``InputError``. max_faces, allow_outside_paths: as in ``RigOptions``."""
     scale: float | str | None = None
@@ -213,12 +228,12 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     Returns a ``Rig`` with the skeleton's joints (names, hierarchy, parents first) in the mesh's coordinates and
     weights for every input vertex in input order; a glTF skeleton's nodes and bind pose ride along
     (``Rig.joint_nodes``) so that its glTF output keeps them. ``info`` says which leaves carry a tip bone and
-    which bones were left cold because they lie outside the mesh or have no length (``autorig.bones``).
+    which bones were left cold because they lie outside the mesh or have no length (``autorig.weights.bones``).
     """
-    from .attach import bone_heat
-    from .bones import fit_to_mesh, plan_heat
+    from .weights.attach import bone_heat
+    from .weights.bones import fit_to_mesh, plan_heat
     from .exchange.skeleton import Skeleton, read_skeleton
-    from .mesh import prepare
+    from .input.mesh import prepare
 
     options = options or SkinOptions()
     timings: dict[str, float] = {}
@@ -263,10 +278,10 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
 def _rig_without_template(vertices, faces, name: str, look, options: RigOptions, stage, timings) -> Rig:
     """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
-    from .attach import bone_heat
+    from .weights.attach import bone_heat
     from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
                           medial_surface, path_tree, skeleton_confidence, voxelize)
-    from .mesh import prepare
+    from .input.mesh import prepare
 
     up, front = fixed_axes(options.up, options.front)
     with stage("prepare"):
@@ -284,33 +299,36 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     with stage("skin weights"):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
-        confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
+        inside, _ = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints)
 
     return Rig(
         names=list(template.names), parents=template.parents.copy(), joints=prepared.from_canonical(joints),
         weights=weights, vertices=vertices, faces=faces, template=template.name, timings=timings, look=look,
-        info={"up": up, "front": front, "axes_detected": False, "confidence": round(confidence, 3),
-              "confidence_parts": parts, "inside_voxels": int(grid.inside.sum()), "voxel_size": round(grid.step, 5),
+        # No confidence: with no template there is nothing to check the skeleton against, and the one thing
+        # measured, its joints inside the mesh, holds by construction (a constant 1.00 said nothing).
+        info={"up": up, "front": front, "axes_detected": False, "confidence": None, "confidence_parts": {},
+              "confidence_reasons": [], "joints_inside": round(inside, 3), "inside_voxels": int(grid.inside.sum()),
+              "voxel_size": round(grid.step, 5),
               "medial_voxels": int(len(medial.voxels)), "chains": len(tree.paths), **dropped_info(look)})
 
 
 def _load(mesh, options) -> tuple[np.ndarray, np.ndarray, str, object]:
     """(vertices [V, 3], faces [F, 3], the name errors use, the input's ``Look`` or None) of a mesh path or
     (vertices, faces) pair, checked, with the ``options``' limits."""
-    from .limits import check_faces
-    from .look import load_look
-    from .mesh import check_mesh, load_mesh
+    from .input.limits import check_faces
+    from .input.mesh import check_mesh
+    from .input.read import read_input
 
     if isinstance(mesh, (str, Path)):
-        vertices, faces = load_mesh(mesh, options.max_faces, options.allow_outside_paths)
-        return vertices, faces, Path(mesh).name, load_look(mesh, faces, options.allow_outside_paths)
+        vertices, faces, look = read_input(mesh, options.max_faces, options.allow_outside_paths)
+        return vertices, faces, Path(mesh).name, look
     vertices, faces = check_mesh(*mesh, "mesh")
     check_faces(len(faces), options.max_faces, "mesh")
     return vertices, faces, "mesh", None
 
 
 def dropped_info(look) -> dict:
-    """``{"dropped": [...]}``, what of the input's look was left out (``autorig.confine.Dropped``), for a rig's
+    """``{"dropped": [...]}``, what of the input's look was left out (``autorig.input.confine.Dropped``), for a rig's
     ``info``; {} when nothing was, so that ordinary rigs stay as they were."""
     return {"dropped": [d.as_dict() for d in look.dropped]} if look is not None and look.dropped else {}
 

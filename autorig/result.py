@@ -59,7 +59,7 @@ class Look:
     samplers       glTF sampler objects
     images         [Image] the texture images, bytes untouched
     extras         the input glTF scene's ``extras``, kept on the output's scene
-    dropped        [autorig.confine.Dropped] the input's MTL files and textures left out, and why; not written
+    dropped        [autorig.input.confine.Dropped] the input's MTL files and textures left out, and why; not written
                    as part of the look (the rig's ``info`` carries them, see ``autorig.pipeline``)
     """
     vertex_of: np.ndarray

@@ -10,8 +10,8 @@ A template is a JSON file (see ``templates/biped.json``)::
      "penalty_weights": {"length": 1.0, ...},        # optional: the embedding's Γ (autorig.embed.penalties)
      "helpers": [{"name": "ik_knee_L", "parent": "hips", "offset": [0.1, 0.3, 0.6]}],  # optional
      "confidence": {...},                            # optional: a calibrated model (autorig.confidence)
-     "head_tail": 1.2,                               # optional: weight of the head/tail cue (autorig.orient)
-     "head_bulk": 0.8,                               # optional: weight of the limb ends' bulk cue (autorig.ends)
+     "head_tail": 1.2,                               # optional: weight of the head/tail cue (autorig.embed.orient)
+     "head_bulk": 0.8,                               # optional: weight of the limb ends' bulk cue (autorig.embed.ends)
      "fingers": true,                                # optional: read fingers off the hands (autorig.hands)
      "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
 
@@ -94,16 +94,16 @@ class Template:
     learned_from  what ``autorig learn`` made the template from (kept for the record), or None
     placement  {"alpha": [J], "extent": [3], "offset": [J, 3] (optional), "neck": fraction (optional)}: how
                far each joint is pulled towards the stretched template, and moved by the learned offset; the
-               examples' mean neck height for the stretch about the neck (``autorig.placement``), or None
-    head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.orient``), in
+               examples' mean neck height for the stretch about the neck (``autorig.embed.placement``), or None
+    head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.embed.orient``), in
                penalty units; 0 leaves front and back to the embedding alone
-    head_bulk  how much the limb ends' bulk cue (``autorig.ends``) weighs beside it, in penalty units
+    head_bulk  how much the limb ends' bulk cue (``autorig.embed.ends``) weighs beside it, in penalty units
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
-               to the shared anatomy (``autorig.convention``), or None
+               to the shared anatomy (``autorig.embed.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
     fingers    whether rigs of it get fingers read off their hands (``autorig.hands``); default False
     legs       {joint name: {"height": [2], "offset": [2]}}: where a four-legged animal's leg joints sit on its
-               legs as the mesh shows them (``autorig.legs``), or None
+               legs as the mesh shows them (``autorig.readoff.legs``), or None
     """
     name: str
     names: tuple[str, ...]
@@ -181,7 +181,7 @@ class Template:
         if self.fingers:
             data["fingers"] = True
         if self.conventions:
-            from .convention import conventions_dict
+            from .embed.convention import conventions_dict
             data["default_convention"] = self.default_convention
             data["conventions"] = conventions_dict(self)
         if self.fingers:
@@ -278,8 +278,8 @@ def load_template(name_or_path: str | Path) -> Template:
             raise TemplateError(f"template {path}: the JSON nests too deeply") from None
         return template_from_dict(data, default_name=path.stem, source=str(path))
     if text_path not in builtin_names():
-        raise TemplateError(f"unknown template {text_path!r}; built-in templates: {', '.join(builtin_names())} "
-                            f"(or give a path to a .json file)")
+        raise TemplateError(f"unknown template {text_path!r}; built-in templates: {', '.join(builtin_names())}, "
+                            f"or auto (a skeleton from the mesh's own shape), or a path to a .json file")
     data = json.loads(_builtin_folder().joinpath(text_path + ".json").read_text())
     return template_from_dict(data, default_name=text_path, source=text_path)
 
@@ -402,10 +402,10 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
             placement["offset"] = [[float(v) for v in offset[old[n]]] for n in order]
         if neck is not None:
             placement["neck"] = float(neck)
-    from .convention import parse_conventions
+    from .embed.convention import parse_conventions
     conventions, default_convention = parse_conventions(data.get("conventions"), names, order,
                                                         data.get("default_convention"), bad)
-    from .legs import parse_legs
+    from .readoff.legs import parse_legs
     legs = parse_legs(data.get("legs"), names, bad)
     return Template(
         name=str(data.get("name", default_name)),

@@ -45,7 +45,7 @@ STAGES = ["prepare", "voxels", "distance map", "medial surface", "path tree", "c
 
 def shared_meshes(shared: Path):
     """(name, (vertices, faces), up, front, limbs, expected) of each shared mesh that is available."""
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     for name, up, front, limbs, expected in SHARED:
         path = shared / "data" / "meshes" / f"{name}.obj"

@@ -23,8 +23,8 @@ sys.path.insert(0, str(ROOT))
 import autorig  # noqa: E402
 from autorig.errors import OutputError  # noqa: E402
 from autorig.exchange import write_rig  # noqa: E402
-from autorig.look import load_look  # noqa: E402
-from autorig.mesh import load_mesh  # noqa: E402
+from autorig.input.look import load_look  # noqa: E402
+from autorig.input.mesh import load_mesh  # noqa: E402
 
 TEXTURED = ROOT.parent / "shared" / "data" / "textured"
 CASES = [("CesiumMan.glb", TEXTURED / "CesiumMan.glb", "biped"),

@@ -47,7 +47,7 @@ from autorig.hands.stage import read_fingers, skin_with_fingers
 from autorig.hands.digits import read_hand
 from autorig.hands.joints import FRACTIONS, along_digit
 from autorig.hands.region import LIMB_REACH, hand_extent, hand_piece, hand_surface
-from autorig.mesh import load_mesh
+from autorig.input.mesh import load_mesh
 
 SIDES = {"left": "Left", "right": "Right"}
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How coarse a copy the bone heat may be solved on: weights of dense surfaces against the artists' own.
 
-``autorig.attach`` solves the heat of a surface with more than ``HEAT_MAX_VERTICES`` welded vertices on a
+``autorig.weights.attach`` solves the heat of a surface with more than ``HEAT_MAX_VERTICES`` welded vertices on a
 simplified copy and interpolates back. The shared rigs are small, so each is subdivided (midpoint, which keeps
 the original vertices first and the shape unchanged) to at least ``--vertices`` vertices, weighted on its own
 ground-truth skeleton (tip bones after weighted leaves, non-deforming joints' bones removed, as in
@@ -19,7 +19,7 @@ import time
 
 import trimesh
 
-import autorig.attach as attach
+import autorig.weights.attach as attach
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)

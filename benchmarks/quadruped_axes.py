@@ -267,9 +267,9 @@ def explain(families: list[str], per_family: int, seed: int, template_name: str,
 def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[float, ...]:
     """(embedding penalty facing -z minus facing +z, outline cue, bulk cue, the weighted cues' difference
     between the two frames, weight share) of a +y up, +z front animal (vertices [V, 3], faces [F, 3])."""
-    from autorig.ends import end_bulk_cue
-    from autorig.mesh import prepare
-    from autorig.orient import (DECISION_EXPANSIONS, FEET_BAND, _embedding_cost, _problem, head_tail_cue,
+    from autorig.embed.ends import end_bulk_cue
+    from autorig.input.mesh import prepare
+    from autorig.embed.orient import (DECISION_EXPANSIONS, FEET_BAND, _embedding_cost, _problem, head_tail_cue,
                                 weighted_cues)
     from autorig.pipeline import discretize
     prepared = prepare(vertices, faces, "y", "z")
@@ -292,7 +292,7 @@ def _corpus_animals(train: Path):
     """(name, vertices [V, 3], faces [F, 3]) of the corpus animals, +y up and +z front as shipped."""
     import json
 
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
     for folder in sorted(p for p in train.iterdir() if (p / "joints.json").is_file()):
         if "quadruped_map" in json.loads((folder / "joints.json").read_text()):
             yield (folder.name, *load_mesh(folder / "mesh.obj"))

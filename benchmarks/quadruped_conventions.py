@@ -93,7 +93,7 @@ def column(vertices: np.ndarray, faces: np.ndarray, x: float, z: float) -> tuple
     """(lowest, highest) height where the vertical line through (x, z) crosses the mesh (vertices [V, 3],
     faces [F, 3]), or None if it misses: the legs stage's crossings (``legs.highest_crossings``), the lowest
     as the highest of the mesh upside down."""
-    from autorig.legs import highest_crossings
+    from autorig.readoff.legs import highest_crossings
     point = np.array([[x, z]], float)
     high = float(highest_crossings(vertices, faces, point)[0])
     if not np.isfinite(high):
@@ -118,8 +118,8 @@ def trunk_depths(every: list[dict]) -> dict[str, list[tuple[float, float]]]:
 
 def outside_joints(animal: dict) -> dict[str, float]:
     """{joint key: how far outside ``animal``'s mesh, as a fraction of the height} of its artist's joints more
-    than ``OUTSIDE`` outside (the mesh's signed distance, ``autorig.distance.SurfaceQuery``)."""
-    from autorig.distance import SurfaceQuery
+    than ``OUTSIDE`` outside (the mesh's signed distance, ``autorig.discretize.distance.SurfaceQuery``)."""
+    from autorig.discretize.distance import SurfaceQuery
     keys = list(animal["joints"])
     depth = SurfaceQuery(animal["vertices"], animal["faces"]).closest(np.array([animal["joints"][k] for k in keys]))[0]
     return {k: float(-d) / animal["height"] for k, d in zip(keys, depth) if -d > OUTSIDE * animal["height"]}

@@ -44,7 +44,7 @@ def sized(vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple[np.ndar
 def build_meshes(folder: Path, sizes: list[int], shared: Path) -> list[tuple[str, int, Path, list[str]]]:
     """(name, faces, path, extra CLI flags) for every benchmark mesh, written as OBJ into ``folder``."""
     import trimesh
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
     from autorig.samples import mannequin
     sources = [("mannequin", mannequin(pose="a"), [])]
     for name in ("armadillo", "horse"):

@@ -126,7 +126,7 @@ def dense_weights(rig: dict) -> np.ndarray:
 
 
 def compare_rigs(sides: dict[str, str], shared: Path) -> bool:
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
     axis = {"x": 0, "y": 1, "z": 2}
     print(f"\n{'mesh':28s} {'joints/height':>13s} {'top-1 moved':>11s} {'max |dw|':>9s}  same")
     every = True

@@ -2,7 +2,7 @@
 """Bone-heat weights on the ground-truth skeleton, scored against the artists' weights.
 
 For every rigged model in the shared data (``shared/data/rigged/*``) that has a biped or quadruped map, run
-``autorig.attach.bone_heat`` on the GT mesh with the GT joints and hierarchy, and score the weights with
+``autorig.weights.attach.bone_heat`` on the GT mesh with the GT joints and hierarchy, and score the weights with
 ``shared/tools/score.py`` (``weight_scores``), mapping each GT joint to its own template key so that only the
 weights are judged, not the skeleton. Prints one row per model: vertices, top-1 agreement (%), mean L1 and
 the time bone_heat took; then the same scores with a tip bone added after every weighted leaf joint.
@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from autorig.attach import bone_heat
+from autorig.weights.attach import bone_heat
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SHARED = os.path.normpath(os.path.join(HERE, '..', '..', 'shared'))

@@ -10,7 +10,7 @@ from functools import lru_cache
 
 import numpy as np
 
-# Biped template joint -> CMU (cgspeed) BVH joint, as autorig.pose.BIPED_MAP resolves it for CMU files.
+# Biped template joint -> CMU (cgspeed) BVH joint, as autorig.show.pose.BIPED_MAP resolves it for CMU files.
 CMU_NAMES = {"hips": "Hips", "spine": "Spine", "chest": "Spine1", "neck": "Neck", "head": "Head"}
 for _side in ("left", "right"):
     _S = _side.capitalize()

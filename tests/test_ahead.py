@@ -1,12 +1,12 @@
-"""autorig.ahead: work begun in a forked child gives the caller exactly what it would have computed."""
+"""autorig.weights.ahead: work begun in a forked child gives the caller exactly what it would have computed."""
 import os
 import sys
 
 import numpy as np
 import pytest
 
-from autorig import ahead, attach
-from autorig.ahead import Ahead
+from autorig.weights import ahead, attach
+from autorig.weights.ahead import Ahead
 from autorig.pipeline import rig
 from autorig.samples import mannequin
 
@@ -58,8 +58,8 @@ def test_dense_mesh_rigs_the_same_with_and_without_the_child(monkeypatch):
 
 @forks
 def test_heat_surface_made_ahead_follows_the_mesh_to_its_mid_plane(monkeypatch):
-    from autorig.attach import heat_surface, start_heat_surface
-    from autorig.mesh import prepare
+    from autorig.weights.attach import heat_surface, start_heat_surface
+    from autorig.input.mesh import prepare
     sample = mannequin(pose="a", resolution=48)
     monkeypatch.setattr(attach, "HEAT_MAX_VERTICES", len(sample.vertices) // 3)   # dense: simplified, forked
     prepared = prepare(sample.vertices, sample.faces)
@@ -91,8 +91,8 @@ def _with_slivers(vertices, faces, count=20):
 
 @forks
 def test_a_small_mesh_with_slivers_makes_its_heat_surface_ahead_and_rigs_the_same(monkeypatch):
-    from autorig.attach import COT_LIMIT, face_cotangents, start_heat_surface
-    from autorig.mesh import prepare
+    from autorig.weights.attach import COT_LIMIT, face_cotangents, start_heat_surface
+    from autorig.input.mesh import prepare
     sample = mannequin(pose="a", resolution=48)
     V, F = _with_slivers(sample.vertices, sample.faces)
     assert not np.all(np.abs(face_cotangents(V, F)) <= COT_LIMIT)   # the robust Laplacian's case

@@ -1,9 +1,9 @@
-"""Bone-heat skin weights (autorig.attach.bone_heat) on small synthetic meshes."""
+"""Bone-heat skin weights (autorig.weights.attach.bone_heat) on small synthetic meshes."""
 import numpy as np
 import pytest
 import trimesh
 
-from autorig.attach import bone_heat, segment_distances
+from autorig.weights.attach import bone_heat, segment_distances
 
 
 def _box(extents, center, max_edge):

@@ -17,13 +17,13 @@ import pytest
 from click.testing import CliRunner
 
 from autorig import batch, samples
-from autorig.batch import (EXIT_SOME_FAILED, ClusterError, ConfigError, find_meshes, rig_folder,
+from autorig.batch import (EXIT_SOME_FAILED, ConfigError, find_meshes, rig_folder,
                            write_junit_report)
 from autorig.batch.plan import input_files, plan_assets
 from autorig.batch.progress import BatchProgress
 from autorig.batch.store import read_manifest
 from autorig.cli import BATCH_EXTENSIONS, cli
-from autorig.errors import InputError, SkeletonError, TemplateError
+from autorig.errors import InputError, MissingPackageError, SkeletonError, TemplateError
 from autorig.exchange.gltf import read_glb
 from autorig.exchange.skeleton import read_skeleton
 from autorig.pipeline import RigOptions, SkinOptions
@@ -133,7 +133,8 @@ def test_rigs_every_asset_and_fails_the_broken_one_cleanly(reference):
 
 def test_json_report(reference):
     report = json.loads(reference[3].read_text())
-    assert report["summary"] == {"total": 4, "ok": 3, "failed": 1, "skipped": 0, "exit_code": 7}
+    assert report["summary"] == {"total": 4, "ok": 3, "failed": 1, "skipped": 0, "doubtful": 0,
+                                 "still_failing": 0, "exit_code": 7}
     by_input = {a["input"]: a for a in report["assets"]}
     assert list(by_input) == ["animals/dog.gltf", "hero.obj", "sub/bad.obj", "sub/deeper/kid.obj"]
     for rel, output in RIGGED.items():
@@ -524,8 +525,9 @@ def test_cluster_mode_without_dask_says_how_to_install(tmp_path, monkeypatch):
     import sys
     monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
     (tmp_path / "a.obj").write_text("")
-    with pytest.raises(ClusterError, match=r"autorig\[cluster\]"):
+    with pytest.raises(MissingPackageError, match=r"pip install 'autorig\[cluster\]'") as error:
         rig_folder(tmp_path, tmp_path / "out", scheduler="tcp://127.0.0.1:8786")
+    assert error.value.exit_code == 9     # a missing optional package's own code, not the cluster's 1
 
 
 def test_progress_bar_on_a_terminal(tmp_path):

@@ -23,7 +23,7 @@ from autorig.exchange.animated_gltf import write_animated_glb
 from autorig.exchange.bvh import parse_bvh
 from autorig.exchange.gltf import read_glb, top4_influences, write_glb
 from autorig.exchange.obj import write_obj
-from autorig.pose import retarget, skin
+from autorig.show.pose import retarget, skin
 
 BLENDER = shutil.which("blender")
 SCRIPT = Path(__file__).with_name("blender_check.py")

@@ -45,7 +45,7 @@ def assert_one_error_line(result, code: int | None = None):
 def fake_rig(monkeypatch):
     """Replace the pipeline with a quick fake that loads the mesh for real and returns a trivial rig.
     The calls are recorded in the returned list as (mesh, template, options)."""
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     calls = []
 
@@ -155,7 +155,7 @@ def test_default_command_and_summary_line(tmp_path, tetra, fake_rig):
     assert result.stderr == ""
     lines = result.stdout.splitlines()
     assert len(lines) == 1
-    assert lines[0].startswith(f"{tetra}: quadruped, 28 joints, 4 vertices, ")
+    assert lines[0].startswith(f"{tetra}: quadruped, 28 joints (22 + 6 tips), 4 input vertices, ")
     assert lines[0].endswith(f" s -> {tmp_path / 'out.json'}")
     assert json.loads((tmp_path / "out.json").read_text())
     mesh, template, options = fake_rig[0]

@@ -1,4 +1,4 @@
-"""Conventions: where each studio puts its joints, apart from the shared anatomy (``autorig.convention``,
+"""Conventions: where each studio puts its joints, apart from the shared anatomy (``autorig.embed.convention``,
 ``autorig.learn.conventions``, ``autorig conventions``, ``autorig MESH --convention``)."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import autorig
-from autorig.convention import joint_frames, local_offsets, moved
+from autorig.embed.convention import joint_frames, local_offsets, moved
 from autorig.errors import TemplateError
 from autorig.learn.conventions import convention_for_source, default_convention, fit_conventions, named_sources, source_of
 from autorig.learn.examples import Example

@@ -1,4 +1,4 @@
-"""The limb ends' bulk cue (``autorig.ends``) on a generated cartoon animal that the outline's cue reads the wrong
+"""The limb ends' bulk cue (``autorig.embed.ends``) on a generated cartoon animal that the outline's cue reads the wrong
 way round: a big head straight over the front legs and a long raised tail (``benchmarks/quadruped_axes.py``'s
 generator, one animal with its proportions written out here)."""
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import autorig
-from autorig.ends import end_bulk_cue
-from autorig.mesh import prepare
-from autorig.orient import head_tail_cue
+from autorig.embed.ends import end_bulk_cue
+from autorig.input.mesh import prepare
+from autorig.embed.orient import head_tail_cue
 from autorig.pipeline import discretize
 
 ROOT = Path(__file__).resolve().parents[1]

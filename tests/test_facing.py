@@ -1,10 +1,10 @@
-"""Which way the working copy's pieces face (autorig.facing), for pieces with pinholes: judged by their volume."""
+"""Which way the working copy's pieces face (autorig.input.facing), for pieces with pinholes: judged by their volume."""
 import numpy as np
 import pytest
 import trimesh
 
-from autorig import facing
-from autorig.mesh import prepare
+from autorig.input import facing
+from autorig.input.mesh import prepare
 
 
 def pinholed_sphere(centre, reverse: bool) -> tuple[np.ndarray, np.ndarray]:

@@ -225,7 +225,7 @@ def test_a_mixamo_motion_with_finger_curves_moves_the_fingers(fingered_rig, tmp_
     """autorig pose with a Mixamo-named BVH: bending LeftHandIndex1 and 2 moves the index finger's skin and
     not the middle finger's."""
     from autorig.exchange import write_rig
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
 
     rig_path = tmp_path / "hero.glb"
     write_rig(rename_joints(fingered_rig, "mixamo"), rig_path, "glb")

@@ -1,4 +1,4 @@
-"""The head read off the snout (``autorig.head``): a share of the way from the front paws to the snout's end."""
+"""The head read off the snout (``autorig.readoff.head``): a share of the way from the front paws to the snout's end."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -6,10 +6,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from autorig.distance import SurfaceQuery
+from autorig.discretize.distance import SurfaceQuery
 from autorig.errors import TemplateError
-from autorig.head import STEP, measure_head, read_head
-from autorig.mesh import prepare
+from autorig.readoff.head import STEP, measure_head, read_head
+from autorig.input.mesh import prepare
 from autorig.samples import QUADRUPED_PROPORTIONS, quadruped
 from autorig.template import load_template, template_from_dict
 

@@ -18,8 +18,8 @@ from autorig.exchange.gltf import read_glb
 from autorig.exchange.obj import write_obj
 from autorig.learn.humanoid_map import humanoid_map, with_humanoid_map
 from autorig.naming import BIPED_JOINTS, HUMANOID_JOINTS, rename_joints, scheme_names, template_names
-from autorig.pose import joint_map
-from autorig.rest_pose import arm_angle, pose_name
+from autorig.show.pose import joint_map
+from autorig.readoff.rest_pose import arm_angle, pose_name
 from autorig.samples import mannequin
 from autorig.template import load_template, template_from_dict
 

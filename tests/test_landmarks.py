@@ -1,12 +1,12 @@
-"""Landmarks read off the mesh (``autorig.landmarks``) and the placement's stretch about the neck."""
+"""Landmarks read off the mesh (``autorig.readoff.landmarks``) and the placement's stretch about the neck."""
 import numpy as np
 import pytest
 import trimesh
 
-from autorig.landmarks import neck_fraction
-from autorig.mesh import prepare
+from autorig.readoff.landmarks import neck_fraction
+from autorig.input.mesh import prepare
 from autorig.pipeline import discretize
-from autorig.placement import MAX_NECK_SHIFT, neck_heights
+from autorig.embed.placement import MAX_NECK_SHIFT, neck_heights
 from autorig.samples import Proportions, mannequin
 
 

@@ -25,9 +25,9 @@ from autorig.learn.gamma import Constraint, _solve
 from autorig.learn.augment import BONE_RANGE, END_RANGE, varied
 from autorig.learn.examples import read_examples
 from autorig.learn.proportions import mirror_pairs, skeleton_of_examples
-from autorig.mesh import prepare
+from autorig.input.mesh import prepare
 from autorig.pipeline import discretize
-from autorig.placement import MAX_STRETCH, fit_offset, learned_placement
+from autorig.embed.placement import MAX_STRETCH, fit_offset, learned_placement
 from autorig.samples import mannequin
 from autorig.template import load_template, template_from_dict
 

@@ -1,4 +1,4 @@
-"""Legs read off the mesh (``autorig.legs``): the rings, the bend, the learned rules and the pipeline stage."""
+"""Legs read off the mesh (``autorig.readoff.legs``): the rings, the bend, the learned rules and the pipeline stage."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,8 +6,8 @@ import pytest
 
 import autorig
 from autorig.errors import TemplateError
-from autorig.legs import bend, legs_of, measure_legs, read_legs, sections
-from autorig.mesh import prepare
+from autorig.readoff.legs import bend, legs_of, measure_legs, read_legs, sections
+from autorig.input.mesh import prepare
 from autorig.samples import mannequin, quadruped
 from autorig.template import load_template, template_from_dict
 
@@ -120,7 +120,7 @@ def test_a_foot_on_the_trunk_is_no_leg(template):
 def test_the_back_over_a_leg_is_not_a_tail_raised_over_it():
     """``highest_crossings``: a vertical line meets a unit cube's top at 1 and misses beside it; the back over a
     leg (``top``) stays the back's height when a thin pole (a tail held up) rises over one corner of the ring."""
-    from autorig.legs import highest_crossings
+    from autorig.readoff.legs import highest_crossings
     import trimesh
     cube = trimesh.creation.box(extents=(1, 1, 1))
     cube.apply_translation((0, 0.5, 0))

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from autorig import limits
+from autorig.input import limits
 from autorig.cli import cli
 
 TETRA_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
@@ -97,7 +97,7 @@ def gltf(tmp_path: Path, change) -> Path:
 
 
 def test_the_gltf_tetrahedron_is_fine(tmp_path):
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
     vertices, faces = load_mesh(gltf(tmp_path, lambda d: None))
     assert vertices.shape == (4, 3) and faces.shape == (4, 3)
 

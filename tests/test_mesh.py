@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from autorig.errors import AutorigError, InputError
-from autorig.mesh import AxisError, PreparedMesh, axis_vector, check_mesh, load_mesh, prepare
+from autorig.input.mesh import AxisError, PreparedMesh, axis_vector, check_mesh, load_mesh, prepare
 
 DATA = Path("/work/shared/data")
 CESIUM = DATA / "rigged/CesiumMan/mesh.obj"
@@ -228,7 +228,7 @@ def test_open_pieces_are_turned_outward_by_their_own_winding_number(reverse):
     assert kept_orientation(prepared, F[1]).all() != reverse
     assert kept_orientation(prepared, F[2]).all() != reverse
     assert kept_orientation(prepared, F[3]).all()                        # a sheet has no inside to go by
-    from autorig.distance import SurfaceQuery
+    from autorig.discretize.distance import SurfaceQuery
     inside_hand = prepared.to_canonical(np.array([[0.4, 0.83, 0.0]]))
     assert SurfaceQuery(prepared.work_vertices, prepared.work_faces).winding(inside_hand)[0] > 0.5
 
@@ -525,7 +525,7 @@ def test_prepare_random_point_soups(points, random):
 def test_frame_change_matches_moving_every_vertex(start):
     """Orientation detection takes each candidate frame from the bounding box's corners alone: it must be the
     frame that rotating every vertex gives (feet at 0, one unit tall, centred across and front to back)."""
-    from autorig.mesh import frame_rotation
+    from autorig.input.mesh import frame_rotation
 
     V, F = shuffled_sphere()
     V = V * [0.3, 2.0, 0.7] + [5.0, -1.0, 0.25]   # no symmetry between the axes, off the origin

@@ -1,4 +1,4 @@
-"""Orientation detection (``autorig.orient``): files in other conventions get the rig the convention gets.
+"""Orientation detection (``autorig.embed.orient``): files in other conventions get the rig the convention gets.
 
 Four-legged animals are told head from tail by the outline's cue, weighed by the template's learned
 ``head_tail``; bipeds by the embedding, which the convention's handicap must not outweigh.
@@ -13,7 +13,7 @@ import pytest
 
 import autorig
 from autorig.errors import TemplateError
-from autorig.orient import head_tail_cue
+from autorig.embed.orient import head_tail_cue
 from autorig.samples import mannequin, quadruped
 from autorig.template import load_template, template_from_dict
 
@@ -121,8 +121,8 @@ def test_a_shield_held_to_one_side_does_not_move_the_rig():
     # and right joints across the body's, and keeps its trunk on it.
     import trimesh
 
-    from autorig.distance import SurfaceQuery
-    from autorig.orient import mid_plane
+    from autorig.discretize.distance import SurfaceQuery
+    from autorig.embed.orient import mid_plane
     sample = mannequin(pose="a", resolution=64)
     height = float(np.ptp(sample.vertices[:, 1]))
     shield = trimesh.creation.box(extents=[0.04 * height, 0.3 * height, 0.25 * height])

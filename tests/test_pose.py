@@ -1,4 +1,4 @@
-"""Retargeting a BVH motion onto a rig, skinning, and the animated glTF (autorig.pose, `autorig pose`).
+"""Retargeting a BVH motion onto a rig, skinning, and the animated glTF (autorig.show.pose, `autorig pose`).
 
 Most tests move the rigged mannequin with a BVH of the mannequin's own skeleton (tests/rig_samples.py), so the
 expected motion is known; the CMU walk in ../shared/data is used when it is there.
@@ -21,8 +21,8 @@ from autorig.errors import InputError
 from autorig.exchange.animated_gltf import animated_glb_bytes
 from autorig.exchange.bvh import parse_bvh, read_bvh
 from autorig.exchange.gltf import read_glb, write_glb
-from autorig.mesh import load_mesh
-from autorig.pose import joint_map, read_map, retarget, skin
+from autorig.input.mesh import load_mesh
+from autorig.show.pose import joint_map, read_map, retarget, skin
 
 WALK = Path(__file__).resolve().parents[2] / "shared" / "data" / "motion" / "delfem2_walk.bvh"
 LIMBS = [("left_hip", "left_knee"), ("left_knee", "left_ankle"), ("right_hip", "right_knee"),
@@ -319,7 +319,7 @@ def test_cli_writes_an_animated_glb(files, animation):
     result = run("pose", files / "hero.glb", "--motion", files / "moves.bvh")
     assert result.exit_code == 0, result.output
     out = files / "hero.moves.glb"
-    assert result.stdout.strip().endswith(f"19 of 24 rig joints mapped, 3 frames -> {out}")
+    assert result.stdout.strip().endswith(f"drives 19 of the rig's 19 joints (its 5 tips aside), 3 frames -> {out}")
     assert validate(out)["errors"] == 0
 
 
@@ -339,7 +339,7 @@ def test_cli_poses_a_file_in_the_axes_autorig_recorded(files, rig, tmp_path):
     """The same character stored Z-up and facing -y moves the same way, turned, without --up/--front."""
     from dataclasses import replace
 
-    from autorig.mesh import frame_rotation
+    from autorig.input.mesh import frame_rotation
     rotation = frame_rotation("z", "-y").T  # canonical -> input coordinates
     turned = replace(rig, vertices=rig.vertices @ rotation.T, joints=rig.joints @ rotation.T,
                      info={**rig.info, "up": "z", "front": "-y"})

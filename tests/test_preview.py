@@ -1,4 +1,4 @@
-"""Pictures of a rig (autorig.preview, `autorig preview`, `autorig --preview`)."""
+"""Pictures of a rig (autorig.show.preview, `autorig preview`, `autorig --preview`)."""
 from __future__ import annotations
 
 import importlib.util
@@ -12,12 +12,12 @@ from rig_samples import rigged_mannequin
 from autorig import pipeline
 from autorig.cli import cli
 from autorig.exchange.gltf import write_glb
-from autorig.mesh import frame_rotation
+from autorig.input.mesh import frame_rotation
 
 pytest.importorskip("matplotlib", reason="the preview extra (matplotlib) is not installed")
 from PIL import Image  # noqa: E402  (Pillow comes with matplotlib)
 
-from autorig.preview import render_preview  # noqa: E402
+from autorig.show.preview import render_preview  # noqa: E402
 
 TETRA_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
 
@@ -81,7 +81,8 @@ def test_preview_command(rig, tmp_path):
     write_glb(rig, tmp_path / "hero.glb")
     result = run("preview", tmp_path / "hero.glb")
     assert result.exit_code == 0, result.output
-    assert result.stdout.strip() == f"{tmp_path / 'hero.glb'}: 24 joints, {len(rig.vertices)} vertices -> " \
+    assert result.stdout.strip() == f"{tmp_path / 'hero.glb'}: 24 joints (19 + 5 tips), {len(rig.vertices)} " \
+                                    f"vertices in the file -> " \
                                     f"{tmp_path / 'hero.png'}"
     assert pixels(tmp_path / "hero.png").shape[1] > 900
     result = run("preview", tmp_path / "hero.glb", "-o", tmp_path / "other.png", "--title", "Hero", "-q")
@@ -134,7 +135,7 @@ def test_missing_matplotlib_fails_before_rigging(tmp_path, monkeypatch):
                         lambda name, *args: None if name == "matplotlib" else real_find_spec(name, *args))
     (tmp_path / "hero.obj").write_text(TETRA_OBJ)
     result = run(tmp_path / "hero.obj", "--preview")
-    assert result.exit_code == 1 and calls == []
+    assert result.exit_code == 9 and calls == []     # its own code: a missing optional package
     assert result.stderr.strip() == "autorig: error: --preview needs matplotlib: pip install 'autorig[preview]'"
 
 
@@ -155,3 +156,59 @@ def test_a_star_lying_flat_is_seen_from_above(tmp_path):
     assert top[3] - top[1] >= other[3] - other[1]              # the top view is the tall one
     image = crop(pixels(path), top)
     assert (image.min(axis=2) < 200).mean() > 0.15                 # a mesh drawn there, not an empty box
+
+
+def fingered_mixamo(rig):
+    """``rig`` with five fingers of three joints and a tip on each hand, fanned out past its wrist, every joint
+    named as Mixamo names it: the dense skeleton whose labels crowd a preview (64 joints, 49 of them not tips)."""
+    from autorig.hands.names import FINGERS, finger_joint_names
+    from autorig.naming import rename_joints
+
+    names, parents, joints = list(rig.names), list(rig.parents), [*rig.joints]
+    height = float(np.ptp(rig.vertices[:, 1]))
+    for side in ("left", "right"):
+        wrist = names.index(f"{side}_wrist")
+        out = rig.joints[names.index(f"{side}_hand_end")] - rig.joints[wrist]
+        out /= np.linalg.norm(out)
+        for f, finger in enumerate(FINGERS):
+            parent = wrist
+            for k in range(4):
+                names.append(finger_joint_names()[(0 if side == "left" else 20) + 4 * f + k])
+                joints.append(rig.joints[wrist] + height * (0.03 + 0.02 * k) * out
+                              + height * 0.012 * (f - 2) * np.array([0.0, 0.0, 1.0]))
+                parents.append(parent)
+                parent = len(names) - 1
+    weights = np.hstack([rig.weights, np.zeros((len(rig.weights), len(names) - len(rig.names)))])
+    dense = replace(rig, names=names, parents=np.array(parents), joints=np.array(joints), weights=weights)
+    return rename_joints(dense, "mixamo")
+
+
+def test_dense_labels_do_not_overlap_and_stay_inside(rig, tmp_path):
+    """With fingers and Mixamo's long names, every label drawn (measured: its text's extent) lies inside the
+    picture and its view, and overlaps no other label, the titles or the legend."""
+    from autorig.show.preview import draw_preview
+
+    dense = fingered_mixamo(rig)
+    assert len(dense.names) == 64 and dense.names[0] == "mixamorig:Hips"
+    figure, boxes = draw_preview(dense)
+    renderer = figure.canvas.get_renderer()
+    whole = figure.bbox
+    labels = [text for ax in figure.axes for text in ax.texts if text.get_gid() == "joint label"]
+    extents = [type(text).__mro__[1].get_window_extent(text, renderer) for text in labels]   # the text alone
+    named = {text.get_text() for text in labels}
+    not_tips = len(dense.names) - 15                 # 5 of the biped's tips, 10 finger tips (Mixamo's 4s)
+    assert len(named) >= 0.8 * not_tips, len(named)  # most joints named: those left out had no room anywhere
+    assert any("Index" in text.get_text() for text in labels)
+    others = [figure._suptitle.get_window_extent(renderer)] + \
+        [ax.title.get_window_extent(renderer) for ax in figure.axes if ax.title.get_text()] + \
+        [ax.get_legend().get_window_extent(renderer) for ax in figure.axes if ax.get_legend()]
+    for other in others:               # the titles and legend are not cut off either
+        assert whole.x0 <= other.x0 and other.x1 <= whole.x1 and whole.y0 <= other.y0 and other.y1 <= whole.y1
+    for k, box in enumerate(extents):
+        assert whole.x0 <= box.x0 and box.x1 <= whole.x1 and whole.y0 <= box.y0 and box.y1 <= whole.y1
+        view = labels[k].axes.get_window_extent(renderer)
+        assert view.x0 <= box.x0 and box.x1 <= view.x1 and view.y0 <= box.y0 and box.y1 <= view.y1
+        for other in extents[k + 1:] + others:
+            assert not box.overlaps(other), (labels[k].get_text(), box, other)
+    render_preview(dense, tmp_path / "dense.png")
+    assert pixels(tmp_path / "dense.png").shape[1] > 1000

@@ -14,7 +14,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from quadruped_axes import FAMILIES, TURNS, build, draw, family, judge  # noqa: E402
 
-from autorig.distance import SurfaceQuery  # noqa: E402
+from autorig.discretize.distance import SurfaceQuery  # noqa: E402
 
 
 @pytest.fixture(scope="module", params=FAMILIES)

@@ -6,6 +6,7 @@ bad.obj (a failure). Its reports and page go inside the output folder, which doe
 """
 from __future__ import annotations
 
+import html
 import json
 import re
 import shutil
@@ -121,6 +122,11 @@ def test_page_is_offline_doubtful_first_and_links_the_rigs(batch):
     report = {a["input"]: a for a in json.loads((out / "report.json").read_text())["assets"]}
     assert "thumbnails" in report["hero.obj"]["timings"]
     assert report[f"props/{TUBE}"]["confidence"] < 0.5 and report[f"props/{TUBE}"]["confidence_parts"]["fit"] < 0.8
+    # A doubtful rig is called so, with what pulled it down, in the report and on its card; the good one is not.
+    assert report[f"props/{TUBE}"]["doubtful"] and report[f"props/{TUBE}"]["confidence_reasons"]
+    assert not report["hero.obj"]["doubtful"]
+    card = text[text.index(f'data-name="{html.escape(f"props/{TUBE}")}"'):]
+    assert "probably wrong: " + html.escape(report[f"props/{TUBE}"]["confidence_reasons"][0]) in card
 
 
 @needs_chromium
@@ -135,13 +141,14 @@ def test_page_in_chromium_cards_errors_pictures_filter_and_sort(batch, tmp_path)
         assert [c["name"] for c in cards] == ["sub/bad.obj", f"props/{TUBE}", "hero.obj"]
         assert all(c["visible"] for c in cards)
         assert "not an OBJ file" in cards[0]["text"] and "failed" in cards[0]["text"]
-        assert "low confidence" in cards[1]["text"] and re.search(r"confidence 0\.\d\d\s+fit 0\.\d\d", cards[1]["text"])
+        assert "doubtful" in cards[1]["text"] and "probably wrong: " in cards[1]["text"]
+        assert re.search(r"confidence 0\.\d\d\s+fit 0\.\d\d", cards[1]["text"])
         assert any(w.startswith("fit ") for w in cards[1]["weak"]) and not cards[2]["weak"]  # what pulls it down
         assert "biped · up y · front z" in cards[2]["text"] and re.search(r"\d\.\d s: \w", cards[2]["text"])
         assert {"load", "embedding", "skin weights", "write", "thumbnails"} <= {s.rsplit(" ", 1)[0]
                                                                                 for s in cards[2]["stages"]}
         summary = browser.evaluate("document.querySelector('.summary').innerText")
-        assert re.search(r"3\s+assets\s+2\s+ok\s+1\s+failed\s+0\s+skipped\s+1\s+low confidence", summary), summary
+        assert re.search(r"3\s+assets\s+2\s+ok\s+1\s+failed\s+0\s+skipped\s+1\s+doubtful", summary), summary
         widths = browser.evaluate("Promise.all(Array.from(document.images, i => i.decode().then(() => "
                                   "[i.naturalWidth, i.naturalHeight, i.width])))")
         assert len(widths) == 4 and all(w > 0 and h == 160 and shown > 0 for w, h, shown in widths)

@@ -143,7 +143,7 @@ def test_cesium_man_cli_end_to_end(tmp_path):
 
     import trimesh
     from autorig.exchange.gltf import read_glb
-    from autorig.mesh import load_mesh
+    from autorig.input.mesh import load_mesh
     V, _ = load_mesh(mesh)
     loaded = read_glb(out)
     np.testing.assert_allclose(loaded.vertices, V, atol=1e-5)
@@ -170,11 +170,11 @@ def test_cesium_man_cli_end_to_end(tmp_path):
 def test_overlap_measures_the_shared_part_of_each_path():
     """The overlap penalty's shared length is the length of the path's edges that end on used spheres,
     for every source and candidate sphere (checked by walking the paths)."""
-    from autorig.distance import distance_field
+    from autorig.discretize.distance import distance_field
     from autorig.embed.penalties import shared_length
-    from autorig.graph import sphere_graph
-    from autorig.medial import medial_samples, pack_spheres
-    from autorig.mesh import prepare
+    from autorig.discretize.graph import sphere_graph
+    from autorig.discretize.medial import medial_samples, pack_spheres
+    from autorig.input.mesh import prepare
 
     sample = mannequin(pose="a")
     prepared = prepare(sample.vertices, sample.faces, "y", "z")

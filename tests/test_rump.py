@@ -1,4 +1,4 @@
-"""The tail's base read off the rump (``autorig.rump``): the trunk's end, whatever the tail does."""
+"""The tail's base read off the rump (``autorig.readoff.rump``): the trunk's end, whatever the tail does."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -6,10 +6,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from autorig.distance import SurfaceQuery
+from autorig.discretize.distance import SurfaceQuery
 from autorig.errors import TemplateError
-from autorig.mesh import prepare
-from autorig.rump import measure_rump, read_rump
+from autorig.input.mesh import prepare
+from autorig.readoff.rump import measure_rump, read_rump
 from autorig.samples import QUADRUPED_PROPORTIONS, quadruped
 from autorig.template import load_template, template_from_dict
 

@@ -16,11 +16,11 @@ import pytest
 import trimesh
 
 import autorig
-from autorig.bones import plan_heat
+from autorig.weights.bones import plan_heat
 from autorig.errors import SkeletonError
 from autorig.exchange.gltf import read_glb
 from autorig.exchange.skeleton import read_skeleton
-from autorig.mesh import load_mesh
+from autorig.input.mesh import load_mesh
 from gltf_validator import validate
 
 ROOT = Path(__file__).resolve().parents[1]

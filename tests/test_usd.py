@@ -12,7 +12,7 @@ from rig_samples import rigged_mannequin
 
 from autorig.exchange import write_rig
 from autorig.exchange.gltf import top4_influences
-from autorig.pose import skin
+from autorig.show.pose import skin
 
 pxr = pytest.importorskip("pxr", reason="usd-core is not installed (pip install 'autorig[usd]')")
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, UsdSkel, UsdValidation, Vt  # noqa: E402

@@ -86,7 +86,7 @@ Crash safety
     while the first runs stops at once with ``OutputError`` (exit 4), before any work.
 
 Files from the asset's own folder
-    Each asset may read only the files in its own folder and below it (``autorig.confine``): textures, MTL
+    Each asset may read only the files in its own folder and below it (``autorig.input.confine``): textures, MTL
     files, glTF buffers and images named outside it are left out with a warning (``AssetResult.dropped``),
     as is the asset itself when it is a symlink leading out of ``input_dir``, and a config's template and
     skeleton files must lie inside ``input_dir``: unless ``options.allow_outside_paths``. Even then a
@@ -101,13 +101,15 @@ Failures
     most ``worker.ASSET_SECONDS`` (600 s) and ``worker.ASSET_MEMORY`` (8 GB of address space), and ends with
     the batch however the batch ends (``worker.start_worker``).
     ``BatchResult.exit_code`` is 0 when every asset is rigged (now or in an earlier run) and
-    ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run.
+    ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run. A rig whose
+    confidence is below 0.5 is "doubtful" (``autorig.explain``): rigged, but probably wrong; with
+    ``fail_on_doubtful`` such rigs make the code ``EXIT_DOUBTFUL`` (8) when nothing failed.
 
 Reports
     ``report`` (JSON), ``junit`` (JUnit XML) and ``html`` (a page to review the batch by eye:
     ``autorig.batch.review``) are written at the end, atomically; each may lie inside ``output_dir``, in
     folders that do not exist yet. With ``html`` the workers also draw each rig's front and side thumbnails
-    (``autorig.thumbnails.render_thumbnails``, its ``thumbnails`` stage time) into
+    (``autorig.show.thumbnails.render_thumbnails``, its ``thumbnails`` stage time) into
     ``output_dir/.autorig-thumbnails/``, and the manifest keeps them, with the stage times and the
     confidence's parts, so that a resumed run's page still shows the skipped assets in full.
 
@@ -134,14 +136,15 @@ from .lock import LOCK_NAME, output_lock, remove_temporaries
 from .plan import (CONFIG_NAMES, DEFAULT_EXTENSIONS, ConfigError, Plan, find_meshes, html_setting, input_files,
                    plan_assets)
 from .report import write_json_report, write_junit_report
-from .result import EXIT_SOME_FAILED, AssetResult, BatchResult
+from .result import EXIT_DOUBTFUL, EXIT_SOME_FAILED, AssetResult, BatchResult
 from .store import (MANIFEST_INTERVAL, MANIFEST_NAME, THUMBNAILS_FOLDER, check_writable, kept_result, make_parent,
                     read_manifest, store_outcome, write_manifest)
 from .worker import Job, cpu_count, remove_stale_scratch, require_thumbnails, run_locally
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
-           "THUMBNAILS_FOLDER", "LOCK_NAME", "EXIT_SOME_FAILED"]
+           "THUMBNAILS_FOLDER", "LOCK_NAME", "EXIT_SOME_FAILED",
+           "EXIT_DOUBTFUL"]
 
 
 def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, template: str = "biped",
@@ -149,7 +152,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                fmt: str = "glb", extensions: Iterable[str] = DEFAULT_EXTENSIONS,
                jobs: int | None = None, scheduler: str | None = None, force: bool = False,
                report: str | os.PathLike | None = None, junit: str | os.PathLike | None = None,
-               html: str | os.PathLike | None = None, names: str = "template",
+               html: str | os.PathLike | None = None, names: str = "template", fail_on_doubtful: bool = False,
                on_start: Callable[[int, int], None] | None = None,
                on_result: Callable[[AssetResult], None] | None = None) -> BatchResult:
     """Rig every mesh under ``input_dir`` into ``output_dir`` (see the module docstring).
@@ -172,11 +175,14 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                        (needs Pillow), kept in ``output_dir/.autorig-thumbnails``
     names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (the engines' schemes:
                        biped and humanoid only; an asset with other joints fails)
+    fail_on_doubtful   the result's exit code is ``EXIT_DOUBTFUL`` (8) when no asset failed but some rig is
+                       doubtful (``autorig.explain``: confidence below 0.5), and the JUnit report fails them
     on_start           called once before rigging with (assets to rig, assets skipped)
     on_result          called with each finished or skipped asset's ``AssetResult``, in the order they end
 
     Raises ``InputError``/``ConfigError`` (exit 2), ``TemplateError``/``SkeletonError`` (3), ``OutputError`` (4),
-    ``ClusterError`` (1) or ``AutorigError`` (1: ``html`` without Pillow) for problems that stop the whole
+    ``ClusterError`` (1) or ``MissingPackageError`` (9: ``html`` without Pillow, ``scheduler`` without
+    dask.distributed) for problems that stop the whole
     batch, all before any rigging; a failing asset only gets status ``failed``.
     """
     from ..exchange import FORMATS
@@ -272,7 +278,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         finally:
             write_manifest(manifest_path, manifest)
 
-        result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start)
+        result = BatchResult(input_dir, output_dir, [results[p.rel] for p in plans], time.perf_counter() - start,
+                             fail_on_doubtful)
         for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
             if path is not None:
                 make_parent(Path(path), output_dir)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Iterator
 
-from ..errors import AutorigError
+from ..errors import AutorigError, missing_package
 from ..version import __version__
 from .worker import Job, drain
 
@@ -23,7 +23,7 @@ def run_on_cluster(address: str, work: Iterator[tuple[Plan, Job]], finished) -> 
         from distributed.comm import parse_address
         from distributed.comm.registry import get_backend
     except ImportError:
-        raise ClusterError("cluster mode needs dask.distributed: pip install 'autorig[cluster]'") from None
+        raise missing_package("cluster mode (--scheduler)", "dask.distributed", "cluster") from None
     try:
         # Checked first: a Client that fails on a bad scheme hangs the interpreter's exit for a minute.
         get_backend(parse_address(address)[0])

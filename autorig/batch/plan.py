@@ -13,7 +13,7 @@ from typing import Iterable
 from urllib.parse import unquote
 
 from ..errors import InputError, SkeletonError, TemplateError
-from ..limits import read_regular
+from ..input.limits import read_regular
 from ..version import __version__
 
 DEFAULT_EXTENSIONS = ("obj", "off", "ply", "stl", "glb", "gltf")
@@ -70,7 +70,7 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
     from dataclasses import replace
 
     from ..exchange import default_output_path
-    from ..mesh import AxisError, frame_rotation
+    from ..input.mesh import AxisError, frame_rotation
     from ..pipeline import SkinOptions
     from ..template import AUTO
 
@@ -123,7 +123,7 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
             # others in the same folder (a quadruped); one such template without it stops the batch.
             convention = options.convention if loaded != AUTO and loaded.conventions else None
             if convention is not None:
-                from ..convention import convention_named
+                from ..embed.convention import convention_named
                 convention_named(loaded, convention)
             how = replace(options, up=up, front=front, convention=convention)
             label = AUTO if loaded == AUTO else loaded.name
@@ -151,7 +151,7 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
 def _limits_of(how) -> dict:
     """The input limits of ``how`` (``RigOptions`` or ``SkinOptions``) that differ from the defaults: they
     change what fails or is left out, so a resume key holds them."""
-    from ..limits import MAX_FACES
+    from ..input.limits import MAX_FACES
     return {**({"max_faces": how.max_faces} if how.max_faces != MAX_FACES else {}),
             **({"allow_outside_paths": True} if how.allow_outside_paths else {})}
 
@@ -326,7 +326,7 @@ class _Configs:
         return settings
 
     def _confine(self, path: Path, key: str, name: str) -> None:
-        from ..confine import Refused, inside
+        from ..input.confine import Refused, inside
         try:
             inside(path.parent, name, self.root, self._allow_outside)
         except Refused as e:
@@ -369,7 +369,7 @@ class _Configs:
 
 def _check_axis(spec: str, key: str, where: str) -> str:
     """``spec`` in lower case if it names an axis or is ``auto``, else ``ConfigError``."""
-    from ..mesh import AxisError, axis_vector
+    from ..input.mesh import AxisError, axis_vector
     if spec.lower() == "auto":
         return "auto"
     try:
@@ -386,7 +386,7 @@ def input_files(path: Path, root: Path | None = None, allow_outside: bool = Fals
     the mesh itself must lie in ``root`` (the input folder) unless ``allow_outside``: a symlink there that
     leads out of it is an ``InputError``."""
     if root is not None and not allow_outside and path.exists():  # (a dangling link: "cannot read" below)
-        from ..confine import Refused, inside
+        from ..input.confine import Refused, inside
         try:
             inside(root, os.path.relpath(path, root), root)
         except Refused:
@@ -424,7 +424,7 @@ def input_files(path: Path, root: Path | None = None, allow_outside: bool = Fals
                 continue
             add(unquote(uri))
     elif path.suffix.lower() == ".obj":
-        from ..look import material_files
+        from ..input.look import material_files
         for library, maps in material_files(path, allow_outside):
             if add(library) is not None:
                 for name in maps:
@@ -442,7 +442,7 @@ def html_setting(input_dir: Path, output_dir: Path, allow_outside: bool = False)
     settings = _Configs(input_dir, _TemplateCache(), _SkeletonCache(input_dir), allow_outside).batch_settings()
     if "html" not in settings:
         return None
-    from ..confine import Refused, inside
+    from ..input.confine import Refused, inside
     try:  # the config is the input folder's, written by others: it may not send a page out of the output folder
         inside(output_dir, settings["html"], output_dir, allow_outside)
     except Refused as e:

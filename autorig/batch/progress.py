@@ -9,9 +9,13 @@ ends, so a log shows which asset was slow or failed and that the batch is alive:
 
     [3/12] ok      dogs/rex.obj  quadruped  3.1 s  confidence 0.82
     [4/12] failed  props/lamp.obj: the mesh is flat (...)
+    [5/12] doubtful dogs/cow.obj  biped  2.1 s  confidence 0.05, probably wrong (left toe / right toe: ...)
+
+A doubtful rig (``AssetResult.doubtful``: confidence below 0.5) is rigged, but probably wrong: its line says
+so, with what pulled its confidence down (``autorig.explain``).
 
 Assets skipped as unchanged are summed up in one line, except earlier failures, which are listed again.
-``quiet`` keeps only the lines of failed assets.
+``quiet`` keeps only the lines of failed and doubtful assets.
 """
 from __future__ import annotations
 
@@ -44,6 +48,8 @@ class BatchProgress:
         if asset.status == "skipped":
             if asset.failed:
                 self._line(f"failed  {asset.error} (unchanged since)")
+            elif asset.doubtful:    # said even when quiet: a warning
+                self._line(f"doubtful {asset.input}  confidence {asset.confidence:.2f} (unchanged since)")
             return
         self.done += 1
         if asset.status == "ok":
@@ -53,15 +59,20 @@ class BatchProgress:
         if self.bar is not None:
             if asset.failed:
                 self._line(f"failed  {asset.error}")
+            elif asset.doubtful:
+                self._line(f"doubtful {asset.input}  confidence {asset.confidence:.2f}, probably wrong")
             self.bar.update(1)
             self._postfix()
         elif asset.failed:
             self._line(f"[{self.done}/{self.total}] failed  {asset.error}")
-        elif not self.quiet:
+        elif not self.quiet or asset.doubtful:
             confidence = f"  confidence {asset.confidence:.2f}" if asset.confidence is not None else ""
-            self._line(f"[{self.done}/{self.total}] ok      {asset.input}  {asset.template}  "
-                       f"{asset.seconds:.1f} s{confidence}")
-        from ..confine import dropped_line
+            if asset.doubtful:
+                reasons = "; ".join(asset.confidence_reasons)
+                confidence += ", probably wrong" + (f" ({reasons})" if reasons else "")
+            self._line(f"[{self.done}/{self.total}] {'doubtful' if asset.doubtful else 'ok      '} {asset.input}  "
+                       f"{asset.template}  {asset.seconds:.1f} s{confidence}")
+        from ..input.confine import dropped_line
         for dropped in asset.dropped:  # said even when quiet, as by 'autorig MESH'
             self._line(f"warning {dropped_line(asset.input, dropped)}")
 

@@ -70,12 +70,13 @@ def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHO
     earlier_failed = sum(a.status == "skipped" and a.failed for a in result.assets)
     tiles = [("assets", len(result.assets), ""), ("ok", counts["ok"], "ok"),
              ("failed", counts["failed"], "failed" if counts["failed"] else ""),
-             ("skipped", counts["skipped"], ""), ("low confidence", doubtful, "low" if doubtful else ""),
+             ("skipped", counts["skipped"], ""), ("doubtful", doubtful, "low" if doubtful else ""),
              ("total time", _seconds(result.seconds), "")]
     summary = "".join(f'<div class="tile {kind}"><b>{html.escape(str(value))}</b>{html.escape(label)}</div>'
                       for label, value, kind in tiles)
     notes = [f"{earlier_failed} of the skipped assets failed in the run that rigged them"] if earlier_failed else []
-    notes.append(f"low confidence: below {low:g}; parts below {WEAK_PART:g} are marked")
+    notes.append(f"doubtful: confidence below {low:g}, probably wrong (look at its pictures); parts below "
+                 f"{WEAK_PART:g} are marked")
     cards = "\n".join(_card(a, rank, result.output_dir, page_dir, low) for rank, a in enumerate(assets))
     title = f"autorig batch: {result.input_dir.name or result.input_dir}"
     return _PAGE.format(
@@ -93,7 +94,7 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     if asset.failed:
         kind, badge = "failed", "failed" + (" earlier" if asset.status == "skipped" else "")
     elif _is_low(asset, low):
-        kind, badge = "low", "low confidence"
+        kind, badge = "low", "doubtful"
     else:
         kind, badge = "ok", "ok"
     if asset.status == "skipped" and not asset.failed:
@@ -112,6 +113,9 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
         parts = " ".join(f'<span class="part{" weak" if value < WEAK_PART else ""}">{e(part)} {value:.2f}</span>'
                          for part, value in asset.confidence_parts.items())
         lines.append(f'<p class="confidence">confidence <b>{asset.confidence:.2f}</b><br>{parts}</p>')
+        if _is_low(asset, low):
+            reasons = "; ".join(asset.confidence_reasons) or "no one part stands out"
+            lines.append(f'<p class="error">probably wrong: {e(reasons)}</p>')
     timings = asset.timings or asset.previous_timings
     seconds = asset.seconds or sum(asset.previous_timings.values())
     if timings:

@@ -48,26 +48,30 @@ def kept_result(plan: Plan, entry: dict | None, output_dir: Path) -> AssetResult
         return None
     thumbnails = {view: rel for view, rel in (entry.get("thumbnails") or {}).items()
                   if (output_dir / rel).is_file()}
+    up, front = entry.get("axes") or (plan.up, plan.front)
     return AssetResult(input=plan.rel, output=plan.output, status="skipped", previous=entry.get("status"),
-                       template=plan.label, up=plan.up, front=plan.front, error=entry.get("error"),
+                       template=plan.label, up=up, front=front, error=entry.get("error"),
                        error_type=entry.get("error_type"), confidence=entry.get("confidence"),
                        confidence_parts=entry.get("confidence_parts") or {},
                        previous_timings=entry.get("timings") or {}, thumbnails=thumbnails,
                        dropped=entry.get("dropped") or [], hands=entry.get("hands") or {},
-                       rest_pose=entry.get("rest_pose"), arm_angle=entry.get("arm_angle"))
+                       rest_pose=entry.get("rest_pose"), arm_angle=entry.get("arm_angle"),
+                       confidence_reasons=entry.get("confidence_reasons") or [])
 
 
 def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict,
                   thumbnails: bool = False) -> AssetResult:
     """Write a finished asset's output (and with ``thumbnails`` its pictures), remember its outcome when it
     would come out the same again, and return its ``AssetResult``."""
+    up, front = outcome.get("axes") or (plan.up, plan.front)   # the axes found, not "auto"
     result = AssetResult(input=plan.rel, output=plan.output, status=outcome["status"],
-                         template=plan.label, up=plan.up, front=plan.front, error=outcome.get("error"),
+                         template=plan.label, up=up, front=front, error=outcome.get("error"),
                          error_type=outcome.get("error_type"), confidence=outcome.get("confidence"),
                          confidence_parts=outcome.get("confidence_parts", {}),
                          seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}),
                          dropped=outcome.get("dropped", []), hands=outcome.get("hands", {}),
-                         rest_pose=outcome.get("rest_pose"), arm_angle=outcome.get("arm_angle"))
+                         rest_pose=outcome.get("rest_pose"), arm_angle=outcome.get("arm_angle"),
+                         confidence_reasons=outcome.get("confidence_reasons", []))
     out = output_dir / plan.output
     _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
@@ -77,7 +81,7 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                 result.thumbnails = _write_thumbnails(output_dir, plan.output, outcome.get("thumbnails", {}))
         except AutorigError as e:
             result.status, result.error, result.error_type = "failed", str(e), type(e).__name__
-            result.confidence, result.confidence_parts = None, {}
+            result.confidence, result.confidence_parts, result.confidence_reasons = None, {}, []
             result.rest_pose = result.arm_angle = None
             outcome = {"remember": False}
     elif plan.rel in manifest and manifest[plan.rel].get("status") == "ok":
@@ -87,8 +91,11 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                               "error": result.error, "error_type": result.error_type,
                               "confidence": result.confidence, "seconds": round(result.seconds, 3),
                               "confidence_parts": result.confidence_parts,
+                              **({"confidence_reasons": result.confidence_reasons}
+                                 if result.confidence_reasons else {}),
                               "timings": {stage: round(s, 4) for stage, s in result.timings.items()},
                               "thumbnails": result.thumbnails,
+                              **({"axes": [result.up, result.front]} if outcome.get("axes") else {}),
                               **({"dropped": result.dropped} if result.dropped else {}),
                               **({"hands": result.hands} if result.hands else {}),
                               **({"rest_pose": result.rest_pose, "arm_angle": result.arm_angle}

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterator
 
-from ..errors import AutorigError, SkeletonError
+from ..errors import AutorigError, SkeletonError, missing_package
 from ..quiet import quiet_libraries
 
 if TYPE_CHECKING:
@@ -47,7 +47,7 @@ class Job:
 def rig_one(job: Job) -> dict:
     """Rig one asset in a worker (a local process or a Dask worker): write its files to a scratch folder,
     rig, write the output there and return the output's bytes. Never raises for a problem with the asset."""
-    from .. import ahead
+    from ..weights import ahead
     from ..exchange import write_rig
     from ..pipeline import rig, skin
 
@@ -90,6 +90,9 @@ def rig_one(job: Job) -> dict:
             return {"status": "ok", "remember": True, "data": data, "timings": timings, "thumbnails": pictures,
                     "confidence": None if confidence is None else float(confidence),
                     "confidence_parts": dict(result.info.get("confidence_parts") or {}),
+                    "confidence_reasons": list(result.info.get("confidence_reasons") or []),
+                    "axes": ([result.info["up"], result.info["front"]]
+                             if job.skeleton is None and "up" in result.info else None),
                     "dropped": list(result.info.get("dropped", [])),
                     "hands": dict(result.info.get("hands") or {}),
                     "rest_pose": result.info.get("rest_pose"), "arm_angle": result.info.get("arm_angle"),
@@ -203,7 +206,7 @@ def _thumbnails_of(rig) -> dict[str, bytes]:
     """{view: WebP bytes} of ``rig``, or {} if they cannot be drawn (a cluster worker without Pillow, or a
     bug in the drawing): the rig itself is fine, so the asset is not failed for it; its card says so."""
     try:
-        from ..thumbnails import render_thumbnails
+        from ..show.thumbnails import render_thumbnails
         return render_thumbnails(rig)
     except Exception:
         return {}
@@ -219,9 +222,43 @@ def run_locally(jobs: int, work: Iterator[tuple[Plan, Job]], finished) -> None:
         while broken:  # a crashed worker breaks the whole pool: the rest of the work goes to a new one
             with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=start_worker,
                                      initargs=(os.getpid(),)) as executor:
-                broken = drain(executor, 2 * jobs, work, finished,
-                               lost_message="worker process died (crashed or killed) while rigging this asset "
-                                            "or one beside it; rerun with -j 1 to tell which")
+                try:
+                    broken = drain(executor, 2 * jobs, work, finished,
+                                   lost_message="worker process died (crashed or killed) while rigging this asset "
+                                                "or one beside it; rerun with -j 1 to tell which")
+                except KeyboardInterrupt:
+                    _stop_workers(executor)
+                    raise
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c():
+    """While a submit may start a worker process: SIGINT ignored, which a spawned Python keeps. A terminal's
+    Ctrl-C reaches every process of its group; the workers would each print a KeyboardInterrupt traceback (one
+    still importing autorig did), while this process stops them itself (``_stop_workers``)."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _stop_workers(executor) -> None:
+    """Ctrl-C: end the pool's workers now rather than when their rigs end (a worker deep in libigl's C code
+    sees its own SIGINT only when the call returns: a 48k-vertex batch took 14 s to stop). Their assets are
+    not remembered, so the next run rigs them; what they had half-written is removed as after a kill."""
+    processes = list((getattr(executor, "_processes", None) or {}).values())   # no public handle before 3.14
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=1)
+    executor.shutdown(wait=False, cancel_futures=True)
 
 
 def drain(executor, window: int, work: Iterator[tuple[Plan, Job]], finished, lost_message: str) -> bool:
@@ -238,7 +275,8 @@ def drain(executor, window: int, work: Iterator[tuple[Plan, Job]], finished, los
             item = next(work, None)
             if item is None:
                 break
-            pending[executor.submit(rig_one, item[1])] = item[0]
+            with _workers_ignore_ctrl_c():
+                pending[executor.submit(rig_one, item[1])] = item[0]
         if not pending:
             return broken
         done, _ = wait(pending, return_when=FIRST_COMPLETED)
@@ -279,7 +317,7 @@ def cpu_count() -> int:
 
 
 def require_thumbnails() -> None:
-    """The review page's thumbnails need Pillow: say so before any rigging (exit code 1, as for --preview)."""
+    """The review page's thumbnails need Pillow: say so before any rigging (exit code 9, as for --preview)."""
     import importlib.util
     if importlib.util.find_spec("PIL") is None:
-        raise AutorigError("the review page (html) needs Pillow for its pictures: pip install 'autorig[preview]'")
+        raise missing_package("the review page (--html) for its pictures", "Pillow", "preview")

@@ -7,9 +7,9 @@
     autorig templates                       # list the built-in templates
     autorig conventions                     # where each source of the biped's examples puts its joints
     autorig batch assets/ -o rigged/        # every mesh in a folder (autorig.batch)
-    autorig hero.obj --preview              # also hero.rigged.png: front and side views (autorig.preview)
+    autorig hero.obj --preview              # also hero.rigged.png: front and side views (autorig.show.preview)
     autorig preview hero.rigged.glb         # the same picture of an existing rig
-    autorig pose hero.rigged.glb -m walk.bvh -o walk.glb    # retarget a BVH motion (autorig.pose)
+    autorig pose hero.rigged.glb -m walk.bvh -o walk.glb    # retarget a BVH motion (autorig.show.pose)
     autorig learn rigs/*.glb -o studio.json                 # a template learned from rigged characters
 
 One module per command, each a thin layer over the library: ``rig`` (the default command), ``batch``,

@@ -3,14 +3,14 @@ from __future__ import annotations
 
 import click
 
-from .common import (AXES, EXIT_CODES, FINGERS_HELP, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP,
-                     VOXELS_HELP, common_options, input_options, parse_skeleton_scale)
+from .common import (AXES, FINGERS_HELP, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES, NAMES_HELP, VOXELS_HELP,
+                     common_options, exit_codes, input_options, parse_skeleton_scale)
 
 # Must match autorig.batch.DEFAULT_EXTENSIONS (a test checks); repeated here so --help imports nothing.
 BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 
 
-@click.command("batch", epilog=EXIT_CODES, short_help="Rig every mesh in a folder.")
+@click.command("batch", epilog=exit_codes(1, 2, 3, 4, 7, 8, 9), short_help="Rig every mesh in a folder.")
 @click.argument("input_dir", metavar="INPUT_DIR")
 @click.option("-o", "--output", "output_dir", required=True, metavar="OUTPUT_DIR",
               help="Folder for the rigs; INPUT_DIR's folder structure is mirrored inside it.")
@@ -48,19 +48,24 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
 @click.option("--html", metavar="PATH",
               help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
-                   "ones first (one offline file; needs matplotlib). Also: html = \"PATH\" in INPUT_DIR's "
+                   "ones first (one offline file; needs Pillow: pip install 'autorig[preview]'). Also: "
+                   "html = \"PATH\" in INPUT_DIR's "
                    "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
 @click.option("--fingers", is_flag=True, help=FINGERS_HELP)
-@click.option("-q", "--quiet", is_flag=True, help="Print only failed assets (and warnings).")
+@click.option("--fail-on-doubtful", is_flag=True,
+              help="Exit with code 8 when no asset failed but some rig is doubtful (confidence below 0.5: "
+                   "probably wrong); the JUnit report then fails those rigs too.")
+@click.option("-q", "--quiet", is_flag=True, help="Print only failed and doubtful assets (and warnings).")
 @input_options
 @common_options
 def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file: str | None,
                   skeleton_scale: str | None, convention: str | None, up: str, front: str, voxels: int,
                   max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, html: str | None, names: str, fingers: bool, quiet: bool, max_faces: int,
+                  junit: str | None, html: str | None, names: str, fingers: bool, fail_on_doubtful: bool, quiet: bool,
+                  max_faces: int,
                   allow_outside_paths: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
 
@@ -88,7 +93,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                                "still choose either per asset)")
     scale = parse_skeleton_scale(skeleton_scale)
     extensions = [e.strip().lstrip(".") for e in ext.split(",") if e.strip()]
-    from ..mesh import FORMATS as MESH_FORMATS
+    from ..input.mesh import FORMATS as MESH_FORMATS
     unknown = sorted({e for e in extensions if "." + e.lower() not in MESH_FORMATS})
     if unknown or not extensions:
         raise click.UsageError(f"--ext: autorig reads {', '.join(s[1:] for s in sorted(MESH_FORMATS))}"
@@ -106,12 +111,29 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                                        convention=convention, fingers=fingers, **limits),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale, **limits), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
-                            junit=junit, html=html, names=names, on_start=progress.on_start,
+                            junit=junit, html=html, names=names, fail_on_doubtful=fail_on_doubtful,
+                            on_start=progress.on_start,
                             on_result=progress.on_result)
     finally:
         progress.close()
+    if not result.assets:
+        click.echo(f"autorig: warning: no meshes in {input_dir}: looked for "
+                   f"{', '.join('.' + e.lower() for e in extensions)} files (--ext), in every folder below it",
+                   err=True)
     if not quiet:
-        counts = result.counts
-        click.echo(f"{len(result.assets)} assets: {counts['ok']} rigged, {counts['failed']} failed, "
-                   f"{counts['skipped']} unchanged, {result.seconds:.1f} s -> {output_dir}")
+        click.echo(batch_summary(result, output_dir))
     ctx.exit(result.exit_code)
+
+
+def batch_summary(result, output_dir: str) -> str:
+    """The batch's one summary line: "14 assets: 10 rigged, 1 failed, 3 unchanged (1 still failing); 2 rigs
+    doubtful (probably wrong: look at them), 12.5 s -> rigged/". An unchanged rerun whose failures are
+    unchanged says they are still failing, which is why its exit code stays 7."""
+    counts = result.counts
+    unchanged = f"{counts['skipped']} unchanged" + (f" ({counts['still_failing']} still failing)"
+                                                     if counts["still_failing"] else "")
+    doubtful = counts["doubtful"]
+    doubts = (f"; {doubtful} rig{'s' * (doubtful != 1)} doubtful (probably wrong: look at "
+              f"{'them' if doubtful != 1 else 'it'})" if doubtful else "")
+    return (f"{len(result.assets)} assets: {counts['ok']} rigged, {counts['failed']} failed, {unchanged}{doubts}, "
+            f"{result.seconds:.1f} s -> {output_dir}")

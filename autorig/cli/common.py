@@ -12,7 +12,8 @@ from pathlib import Path
 
 import click
 
-from ..errors import AutorigError, OutputError, printable
+from ..errors import EXIT_CODES as ALL_EXIT_CODES
+from ..errors import AutorigError, OutputError, missing_package, printable
 from ..version import __version__
 
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
@@ -36,18 +37,14 @@ EXIT_INTERNAL = 70   # EX_SOFTWARE from BSD sysexits: a bug in autorig
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
 
 
-EXIT_CODES = """\b
-Exit codes:
-  0    success
-  1    general error
-  2    bad input mesh, or a command-line usage error
-  3    unknown or malformed template, or a bad --skeleton file
-  4    output cannot be written
-  5    the mesh was read but could not be rigged
-  6    --strict: the rig's confidence is below the threshold (nothing written)
-  7    batch: some assets could not be rigged (the others were; see the report)
-  70   internal error (a bug: run with --debug and report it)
-  130  interrupted (Ctrl-C)"""
+def exit_codes(*codes: int) -> str:
+    """The "Exit codes:" epilog of a command that can return ``codes`` (from ``autorig.errors.EXIT_CODES``;
+    0, 70 and 130 are always listed)."""
+    shown = sorted({0, *codes, EXIT_INTERNAL, EXIT_INTERRUPTED})
+    return "\b\nExit codes:\n" + "\n".join(f"  {code:<4} {ALL_EXIT_CODES[code]}" for code in shown)
+
+
+EXIT_CODES = exit_codes(*ALL_EXIT_CODES)   # the group's --help: every code
 
 
 _DEBUG = "autorig.debug"  # key in click's ctx.meta, which a group shares with its subcommands
@@ -151,7 +148,7 @@ ALLOW_OUTSIDE_HELP = ("Let a mesh read textures, MTL files and buffers it names 
 
 def input_options(command):
     """--max-faces and --allow-outside-paths, shared by 'autorig rig' and 'autorig batch'. The default must match
-    autorig.limits.MAX_FACES (a test checks); repeated so that --help need not import numpy."""
+    autorig.input.limits.MAX_FACES (a test checks); repeated so that --help need not import numpy."""
     command = click.option("--allow-outside-paths", is_flag=True, help=ALLOW_OUTSIDE_HELP)(command)
     return click.option("--max-faces", type=click.IntRange(min=1), default=5_000_000, metavar="N",
                         help=MAX_FACES_HELP)(command)
@@ -159,7 +156,7 @@ def input_options(command):
 
 def warn_dropped(source: str, info: dict) -> None:
     """One warning line on stderr for each part of the look a rig left out (``rig.info["dropped"]``)."""
-    from ..confine import dropped_line
+    from ..input.confine import dropped_line
     for dropped in info.get("dropped", []):
         _error_line(f"autorig: warning: {dropped_line(source, dropped)}")
 
@@ -208,18 +205,33 @@ def require_matplotlib(what: str) -> None:
     import importlib.util
 
     if importlib.util.find_spec("matplotlib") is None:
-        raise AutorigError(f"{what} needs matplotlib: pip install 'autorig[preview]'")
+        raise missing_package(what, "matplotlib", "preview")
 
 
-def preview_title(name: str, rig) -> str:
-    """The heading of a rig's picture: file name, template and counts."""
-    return f"{name}: {rig.template or 'rig'}, {len(rig.names)} joints, {len(rig.vertices)} vertices"
+def degrees(angle: float) -> str:
+    """An angle in whole degrees, never "-0 deg": "41 deg"."""
+    return f"{round(float(angle)) + 0:d} deg"
+
+
+def joint_count(rig) -> str:
+    """"24 joints (19 + 5 tips)": a rig's joints, with the tips (joints with no child: where a chain ends,
+    autorig's *_end, no bone and no weight of their own) counted apart; "3 joints" when none is a tip."""
+    names, parents = list(rig.names), {int(p) for p in rig.parents}
+    tips = sum(j not in parents for j in range(len(names)))
+    return f"{len(names)} joints" + (f" ({len(names) - tips} + {tips} tips)" if tips and len(names) > 1 else "")
+
+
+def preview_title(name: str, rig, vertices: str = "input vertices") -> str:
+    """The heading of a rig's picture: file name, template and counts. ``vertices`` names which: a rig just
+    made has the input mesh's ("input vertices"); a rig file has its own, a glTF's split where UVs or normals
+    differ ("vertices in the file")."""
+    return f"{name}: {rig.template or 'rig'}, {joint_count(rig)}, {len(rig.vertices)} {vertices}"
 
 
 def rig_axes(rig, up: str | None, front: str | None) -> tuple[str, str]:
     """(up, front) of a rig read from a file: the ones given, else the ones autorig recorded in it
     (``exchange.gltf.recorded_axes``), else glTF's y and z; raises ``AxisError`` when they are parallel."""
-    from ..mesh import frame_rotation
+    from ..input.mesh import frame_rotation
     up, front = up or rig.info.get("up") or "y", front or rig.info.get("front") or "z"
     frame_rotation(up, front)
     return up, front

@@ -7,10 +7,11 @@ from pathlib import Path
 import click
 
 from ..errors import OutputError
-from .common import EXIT_CODES, common_options
+from .common import common_options, exit_codes
 
 
-@click.command("learn", epilog=EXIT_CODES, short_help="Learn a template from rigged characters.")
+@click.command("learn", epilog=exit_codes(2, 3, 4, 5),
+               short_help="Learn a template from rigged characters.")
 @click.argument("rigs", nargs=-1, required=True, metavar="RIGS...")
 @click.option("-o", "--output", required=True, metavar="TEMPLATE.json", help="Where to write the template.")
 @click.option("-t", "--template", "base", metavar="NAME|PATH",

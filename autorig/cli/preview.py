@@ -1,4 +1,4 @@
-"""``autorig preview``: a rig file drawn to a PNG (``autorig.preview``)."""
+"""``autorig preview``: a rig file drawn to a PNG (``autorig.show.preview``)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,11 +6,14 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import (EXIT_CODES, RIG_AXES, check_output, common_options, preview_title, refuse_input,
+from .common import (RIG_AXES, check_output, common_options, exit_codes, joint_count, preview_title, refuse_input,
                      require_matplotlib, rig_axes)
 
 
-@click.command("preview", epilog=EXIT_CODES, short_help="Draw a rig file to a PNG.")
+FILE_VERTICES = "vertices in the file"   # a glTF's, split where UVs or normals differ: not the input mesh's
+
+
+@click.command("preview", epilog=exit_codes(2, 4, 9), short_help="Draw a rig file to a PNG.")
 @click.argument("rig_file", metavar="RIG")
 @click.option("-o", "--output", metavar="PATH",
               help="Where to write the PNG. [default: beside RIG, e.g. hero.rigged.glb -> hero.rigged.png]")
@@ -28,7 +31,7 @@ def preview_command(rig_file: str, output: str | None, up: str | None, front: st
     (pip install 'autorig[preview]')."""
     require_matplotlib("autorig preview")
     from ..exchange.gltf import read_glb
-    from ..preview import render_preview
+    from ..show.preview import render_preview
 
     rig_path = Path(rig_file)
     out_path = Path(output) if output else rig_path.with_suffix(".png")
@@ -37,7 +40,7 @@ def preview_command(rig_file: str, output: str | None, up: str | None, front: st
     with quiet_libraries(shown=False):
         rig = read_glb(rig_path)
         up, front = rig_axes(rig, up, front)
-        render_preview(rig, out_path, title=title if title is not None else preview_title(rig_path.name, rig),
-                       up=up, front=front)
+        heading = title if title is not None else preview_title(rig_path.name, rig, FILE_VERTICES)
+        render_preview(rig, out_path, title=heading, up=up, front=front)
     if not quiet:
-        click.echo(f"{rig_file}: {len(rig.names)} joints, {len(rig.vertices)} vertices -> {out_path}")
+        click.echo(f"{rig_file}: {joint_count(rig)}, {len(rig.vertices)} {FILE_VERTICES} -> {out_path}")

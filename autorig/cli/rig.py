@@ -10,12 +10,12 @@ from pathlib import Path
 import click
 
 from ..quiet import quiet_libraries
-from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP,
-                     NAME_SCHEMES, NAMES_HELP, VOXELS_HELP, check_output, common_options, input_options, parse_skeleton_scale,
-                     preview_title, refuse_input, require_matplotlib, warn_dropped)
+from .common import (AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMATS, MAX_SEGMENTS_HELP, NAME_SCHEMES,
+                     NAMES_HELP, VOXELS_HELP, check_output, common_options, degrees, exit_codes, input_options,
+                     joint_count, parse_skeleton_scale, preview_title, refuse_input, require_matplotlib, warn_dropped)
 
 
-@click.command("rig", epilog=EXIT_CODES, short_help="Rig a mesh (the default command).")
+@click.command("rig", epilog=exit_codes(2, 3, 4, 5, 6, 9), short_help="Rig a mesh (the default command).")
 @click.argument("mesh", metavar="MESH")
 @click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",
               help="Built-in template name (see 'autorig templates'), a template .json file, or auto: a "
@@ -35,7 +35,8 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FINGERS_HELP, FORMAT_OF_SU
               help="The axis the character faces, or auto to detect it (glTF's +z unless the shape "
                    "clearly says otherwise).")
 @click.option("--strict", is_flag=True,
-              help="Write nothing and exit with code 6 when the rig's confidence is below the threshold.")
+              help="Write nothing and exit with code 6 when the rig's confidence is below 0.5 (probably wrong); "
+                   "not with --template auto, which has no confidence.")
 @click.option("--preview", is_flag=True,
               help="Also draw the rig to a PNG beside the output (hero.rigged.glb -> hero.rigged.png); "
                    "needs matplotlib (pip install 'autorig[preview]').")
@@ -52,7 +53,8 @@ from .common import (AUTO_TEMPLATE, AXES, EXIT_CODES, FINGERS_HELP, FORMAT_OF_SU
               help=NAMES_HELP)
 @click.option("--fingers", is_flag=True, help=FINGERS_HELP)
 @click.option("-v", "--verbose", is_flag=True, help="Also print each stage's time (on stderr).")
-@click.option("-q", "--quiet", is_flag=True, help="Print nothing on success (warnings still).")
+@click.option("-q", "--quiet", is_flag=True,
+              help="Print nothing on success (warnings still, and a doubtful rig's confidence as one).")
 @input_options
 @common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, convention: str | None, up: str,
@@ -68,7 +70,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     if verbose and quiet:
         raise click.UsageError("--verbose and --quiet cannot be used together")
     start = time.perf_counter()
-    from ..mesh import check_mesh_path, frame_rotation
+    from ..input.mesh import check_mesh_path, frame_rotation
     from ..template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
@@ -80,10 +82,13 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     mesh_path = check_mesh_path(mesh)
     skeleton = template if template == AUTO_TEMPLATE else load_template(template)
     if skeleton != AUTO_TEMPLATE:
-        from ..convention import convention_named
+        from ..embed.convention import convention_named
         convention_named(skeleton, convention)   # an unknown convention fails here, before any slow work
     elif convention is not None:
         raise click.UsageError("--convention needs a learned template: --template auto has no conventions")
+    if strict and skeleton == AUTO_TEMPLATE:
+        raise click.UsageError("--strict needs a confidence: --template auto has no template to check the "
+                               "skeleton against, so it has none")
     if fingers and skeleton == AUTO_TEMPLATE:
         raise click.UsageError("--fingers needs a template with hands: --template auto finds no wrists")
     if names != "template":
@@ -96,6 +101,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
 
     from ..confidence import STRICT_THRESHOLD
     from ..errors import LowConfidenceError
+    from ..explain import confidence_words, is_doubtful
     from ..pipeline import RigOptions, rig
     with quiet_libraries(shown=verbose):
         _import_paused(RIG_MODULES, fmt)
@@ -105,22 +111,26 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
                                                           fingers=fingers))
         warn_dropped(mesh, result.info)
         confidence = result.info["confidence"]
-        if strict and confidence < STRICT_THRESHOLD:
-            raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD} "
-                                     f"({_weakest(result.info['confidence_parts'])}); nothing written")
+        if strict and confidence is not None and confidence < STRICT_THRESHOLD:
+            reasons = "; ".join(result.info.get("confidence_reasons") or ["no one part stands out"])
+            raise LowConfidenceError(f"{mesh}: confidence {confidence:.2f} is below {STRICT_THRESHOLD}, probably "
+                                     f"wrong ({reasons}); nothing written")
         preview_path = _write(_named(result, names), out_path, fmt, mesh_path, preview, verbose)
     end = time.perf_counter()
 
+    if quiet and is_doubtful(confidence):     # a warning: said even when quiet
+        click.echo(f"autorig: warning: {mesh}: {confidence_words(confidence, result.info['confidence_reasons'])}",
+                   err=True)
     if not quiet:
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
             axes += " (detected)"
-        if "rest_pose" in result.info:    # autorig.rest_pose: the arms' pose the bind pose is in
-            axes += f", {result.info['rest_pose']} ({result.info['arm_angle']:.0f} deg)"
+        if "rest_pose" in result.info:    # autorig.readoff.rest_pose: the arms' pose the bind pose is in
+            axes += f", {result.info['rest_pose']} ({degrees(result.info['arm_angle'])})"
         template_name = result.template + (f" ({result.info['convention']})" if "convention" in result.info else "")
-        click.echo(f"{mesh}: {template_name}, {len(result.names)} joints, {len(result.vertices)} vertices, "
-                   f"{axes}, confidence {result.info['confidence']:.2f}{_hands(result.info)}, {end - start:.2f} s "
-                   f"-> {out_path}"
+        words = confidence_words(confidence, result.info.get("confidence_reasons") or [])
+        click.echo(f"{mesh}: {template_name}, {joint_count(result)}, {len(result.vertices)} input vertices, "
+                   f"{axes}, {words}{_hands(result.info)}, {end - start:.2f} s -> {out_path}"
                    + (f" (preview {preview_path})" if preview else ""))
 
 
@@ -131,10 +141,10 @@ def _hands(info: dict) -> str:
 
 
 # What each command's pipeline imports (see _import_paused); a module missing here only costs some speed.
-RIG_MODULES = ("autorig.pipeline", "autorig.attach", "igl", "scipy.sparse.linalg", "scipy.optimize")
+RIG_MODULES = ("autorig.pipeline", "autorig.weights.attach", "igl", "scipy.sparse.linalg", "scipy.optimize")
 
 
-SKIN_MODULES = ("autorig.pipeline", "autorig.attach", "autorig.bones", "igl", "scipy.sparse.linalg")
+SKIN_MODULES = ("autorig.pipeline", "autorig.weights.attach", "autorig.weights.bones", "igl", "scipy.sparse.linalg")
 
 
 def _import_paused(modules: tuple[str, ...], fmt: str) -> None:
@@ -178,7 +188,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
     scale = parse_skeleton_scale(skeleton_scale)
 
     from ..exchange.skeleton import read_skeleton
-    from ..mesh import check_mesh_path
+    from ..input.mesh import check_mesh_path
 
     mesh_path = check_mesh_path(mesh)
     out_path, fmt = _output_for(mesh_path, output, fmt, preview, Path(skeleton_file))
@@ -203,7 +213,7 @@ def _skin_command(mesh: str, skeleton_file: str | None, skeleton_scale: str | No
         cold = sum(map(len, info["cold_bones"].values()))
         click.echo(f"{mesh}: skeleton {skeleton_file}, {len(result.names)} joints ({info['joints_weighted']} "
                    f"weighted, {len(info['tip_bones'])} tip bones, {cold} bones left cold), {len(result.vertices)} "
-                   f"vertices, {end - start:.2f} s -> {out_path}" + (f" (preview {preview_path})" if preview else ""))
+                   f"input vertices, {end - start:.2f} s -> {out_path}" + (f" (preview {preview_path})" if preview else ""))
 
 
 def _output_for(mesh_path: Path, output: str | None, fmt: str | None, preview: bool, *inputs: Path
@@ -233,7 +243,7 @@ def _write(result, out_path: Path, fmt: str, mesh_path: Path, preview: bool, ver
     timings = {**result.timings, "write": time.perf_counter() - start}
     preview_path = None
     if preview:
-        from ..preview import render_preview
+        from ..show.preview import render_preview
         start = time.perf_counter()
         preview_path = out_path.with_name((out_path.name if fmt == "pinocchio" else out_path.stem) + ".png")
         render_preview(result, preview_path, title=preview_title(mesh_path.name, result))
@@ -249,12 +259,6 @@ def _named(result, names: str):
     """The rig with its joints named as ``--names`` says (``autorig.naming``)."""
     from ..naming import rename_joints
     return rename_joints(result, names)
-
-
-def _weakest(parts: dict[str, float]) -> str:
-    """The lowest parts of a confidence, e.g. 'limbs 0.29, fit 0.41'."""
-    low = sorted(parts.items(), key=lambda kv: kv[1])[:2]
-    return ", ".join(f"{k} {v:.2f}" for k, v in low)
 
 
 def _format_of(output: str | None) -> str:

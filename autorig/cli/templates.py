@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import click
 
-from .common import AUTO_TEMPLATE, EXIT_CODES, common_options
+from .common import AUTO_TEMPLATE, common_options, exit_codes
 
 
 @click.command("templates", short_help="List the built-in templates.")
@@ -19,7 +19,7 @@ def templates_command():
                f"limb, for any creature (Wade & Parent 2002; see --voxels, --max-segments).")
 
 
-@click.command("conventions", epilog=EXIT_CODES, short_help="List a template's conventions.")
+@click.command("conventions", epilog=exit_codes(3), short_help="List a template's conventions.")
 @click.option("-t", "--template", default="biped", show_default=True, metavar="NAME|PATH",
               help="A built-in template name or a template .json file.")
 @common_options

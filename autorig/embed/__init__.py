@@ -1,7 +1,7 @@
 """Discrete embedding: the template's reduced skeleton placed on the sphere graph (penalties + A* search)."""
 from __future__ import annotations
 
-from ..graph import SphereGraph
+from ..discretize.graph import SphereGraph
 from ..template import Template
 from .penalties import WEIGHTS, build_problem
 from .search import MAX_EXPANSIONS, Embedding, search

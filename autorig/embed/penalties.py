@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import RigFailedError
-from ..graph import SphereGraph
+from ..discretize.graph import SphereGraph
 from ..template import PENALTY_WEIGHTS, ReducedSkeleton, Template
 
 # The hand-set Γ of the table above. It lives with the template data (a template's ``penalty_weights`` are

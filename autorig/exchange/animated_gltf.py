@@ -19,7 +19,7 @@ from .files import write_file_atomic
 from .gltf import _document
 
 if TYPE_CHECKING:  # format modules import no algorithms (see autorig.exchange)
-    from ..pose import Animation as RigAnimation
+    from ..show.pose import Animation as RigAnimation
 
 __all__ = ["write_animated_glb", "animated_glb_bytes", "quaternions"]
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..limits import read_regular
+from ..input.limits import read_regular
 
 __all__ = ["Motion", "read_bvh", "parse_bvh"]
 

@@ -39,8 +39,8 @@ from pygltflib import (GLTF2, Accessor, Asset, Attributes, Buffer, BufferView, M
                        Skin)
 
 from ..errors import InputError
-from ..facing import face_cross
-from ..limits import check_faces
+from ..input.facing import face_cross
+from ..input.limits import check_faces
 from ..result import Look, Rig
 from ..version import __version__
 from .arrays import check_rig, parents_first
@@ -218,7 +218,7 @@ def _document(rig: Rig) -> tuple[GLTF2, bytes]:
             scene_extras.update(autorig_input_vertices=len(vertices),
                                 autorig_copies_of=[int(v) for v in copy[len(vertices):]])
     if rig.info.get("dropped"):
-        # What of the input's look could not come along (autorig.confine), for whoever opens the file.
+        # What of the input's look could not come along (autorig.input.confine), for whoever opens the file.
         scene_extras["autorig_dropped"] = rig.info["dropped"]
     if rig.info.get("up") and rig.info.get("front"):
         # The axes the character stands on in this file (given or detected): glTF assumes +y up and +z front,
@@ -316,7 +316,7 @@ def read_gltf_scene(path: str | os.PathLike, allow_outside: bool = False, max_fa
     nodes are taken in order of their names (a node without one is called by its index), ties in node order;
     a node's primitives in their order, those sharing their vertex accessors sharing their vertices. Points
     and lines are ignored. Raises ``InputError`` (one line naming the file) for anything unreadable, for
-    buffer files outside its folder unless ``allow_outside`` (``autorig.confine``), and for more triangles
+    buffer files outside its folder unless ``allow_outside`` (``autorig.input.confine``), and for more triangles
     than ``max_faces`` (None: no limit) or than the memory holds, checked before they are read. Without
     ``look`` the look is not read (None).
     """

@@ -21,8 +21,8 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2, Image as GltfImage, Material, Mesh, Node, Primitive, Sampler, Texture
 
-from ..confine import Dropped, Refused, image_problem, uri_file
-from ..limits import read_regular
+from ..input.confine import Dropped, Refused, image_problem, uri_file
+from ..input.limits import read_regular
 from ..result import Image, Look
 from .gltf_parts import check_attributes, data_uri_bytes
 
@@ -150,7 +150,7 @@ def look_of(doc: GLTF2, buffers: list[bytes], gathered: Gathered, mesh_nodes: li
             keep_extras: bool = True, allow_outside: bool = False) -> Look:
     """The :class:`Look` of ``gathered`` (from ``gather_primitives`` over ``mesh_nodes``) and ``doc``'s
     materials, textures, samplers and images (read from ``path``'s folder when they are files, confined to it
-    unless ``allow_outside``: ``autorig.confine``). An image that cannot be had or is not an image is left out
+    unless ``allow_outside``: ``autorig.input.confine``). An image that cannot be had or is not an image is left out
     with the textures that show it (the materials keep their colours), and recorded in ``Look.dropped``."""
     document = json.loads(doc.to_json())
     images, kept, dropped = [], [], []

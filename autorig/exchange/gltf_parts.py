@@ -13,9 +13,9 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2, Buffer, Node
 
-from ..confine import Refused, uri_file
+from ..input.confine import Refused, uri_file
 from ..errors import InputError
-from ..limits import check_memory, read_regular
+from ..input.limits import check_memory, read_regular
 
 _COMPONENT_DTYPES = {
     pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
@@ -189,7 +189,7 @@ def joint_parents(node_parent: np.ndarray, skin_joints: list[int]) -> np.ndarray
 
 def buffer_data(doc: GLTF2, buffer: Buffer, path: Path, allow_outside: bool = False) -> bytes:
     """The bytes of ``buffer``: the GLB's binary chunk, a data: URI's, or a file's beside ``path`` (confined to
-    its folder unless ``allow_outside``: ``autorig.confine``), at most ``byteLength`` of them."""
+    its folder unless ``allow_outside``: ``autorig.input.confine``), at most ``byteLength`` of them."""
     if buffer.uri is None:
         blob = doc.binary_blob()
         if blob is None:

@@ -11,7 +11,7 @@
 - ``.bvh``: the rest pose of the hierarchy (every channel zero), in the file's units; each ``End Site`` gives
   its joint's bone end (``Skeleton.tips``). The motion, if any, is not read.
 
-Positions are taken as they are; fitting a skeleton to a mesh of other units is ``autorig.bones.fit_to_mesh``.
+Positions are taken as they are; fitting a skeleton to a mesh of other units is ``autorig.weights.bones.fit_to_mesh``.
 Anything that is not a joint tree (no joints, a bad or cyclic parent, a duplicate name, a position that is not
 three finite numbers, a glTF without a skin, a BVH syntax error) raises ``SkeletonError`` with one line.
 """
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, SkeletonError
-from ..limits import MAX_JOINTS, read_regular
+from ..input.limits import MAX_JOINTS, read_regular
 from ..result import JointNodes
 from .arrays import parents_first
 

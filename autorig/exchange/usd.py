@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import OutputError
+from ..errors import OutputError, missing_package
 from ..result import Rig
 from .arrays import check_rig
 from .files import write_file_atomic
@@ -41,12 +41,12 @@ def _pxr():
     try:
         from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, UsdSkel, Vt
     except ImportError:
-        raise OutputError("USD output needs usd-core: pip install 'autorig[usd]'") from None
+        raise missing_package("USD output", "usd-core", "usd") from None
     return Gf, Sdf, Usd, UsdGeom, UsdShade, UsdSkel, Vt
 
 
 def require_usd() -> None:
-    """Raise ``OutputError`` saying what to install if usd-core is missing."""
+    """Raise ``MissingPackageError`` (exit 9) saying what to install if usd-core is missing."""
     _pxr()
 
 

@@ -14,7 +14,7 @@ path tree          ``paths``        heart, extreme points, centralised paths (W 
 control skeleton   ``skeleton``     each path split where a straight bone fits it worst; generated joint names
 =================  ===============  ================================================================================
 
-The skin weights are then the same bone-heat solve as for templates (``autorig.attach``). Joint names are
+The skin weights are then the same bone-heat solve as for templates (``autorig.weights.attach``). Joint names are
 ``root``, ``chain<c>_joint<k>`` and ``chain<c>_end`` (see ``skeleton``). ``shapes`` builds test shapes with known
 branches (``star``, ``tree``).
 """

@@ -51,7 +51,7 @@ HAND_END_BESIDE_FINGERS: dict[str, dict[str, str]] = {
 
 def motion_names() -> dict[str, tuple[str, ...]]:
     """{finger joint: motion joint names to look for}: Mixamo's and Unreal's finger bones, for
-    ``autorig.pose``'s map (compared without a namespace prefix)."""
+    ``autorig.show.pose``'s map (compared without a namespace prefix)."""
     out = {}
     for joint, name in FINGER_NAMES["mixamo"].items():
         out[joint] = (name.split(":")[-1], FINGER_NAMES["unreal"][joint])

@@ -55,7 +55,7 @@ class HandSurface:
 class HandPiece:
     """The hand's piece of the welded mesh, at full resolution, before anything is read off it.
 
-    weld      [V] index of each input vertex in the welded mesh (``autorig.attach.weld_surface``)
+    weld      [V] index of each input vertex in the welded mesh (``autorig.weights.attach.weld_surface``)
     ids       [N] welded vertices of the piece (the hand and the end of the forearm, past the cut)
     vertices  [N, 3] their positions; faces [G, 3] the piece's triangles over them
     along     [N] distance of each past the wrist, along the forearm (negative before it)
@@ -73,7 +73,7 @@ def hand_piece(vertices, faces, wrist, elbow, reach: float = REACH) -> HandPiece
     """The piece of the surface beyond a cut just before the wrist, within ``reach`` forearms of it and joined to
     it; None if it has too few vertices to see fingers. vertices [V, 3], faces [F, 3]: the whole mesh; wrist,
     elbow [3]."""
-    from ..attach import weld_surface
+    from ..weights.attach import weld_surface
 
     wrist, elbow = np.asarray(wrist, float), np.asarray(elbow, float)
     forearm = float(np.linalg.norm(wrist - elbow))

@@ -107,7 +107,8 @@ def read_fingers(vertices, faces, names, joints) -> Fingers:
     return out
 
 
-def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers, surface=None) -> np.ndarray:
+def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers, surface=None,
+                      height=None) -> np.ndarray:
     """Bone-heat weights [V, J + K] of the rig's J joints (joints [J, 3], parents [J], names [J]) and the K
     finger joints (``read_fingers``); rows >= 0 summing to 1, every vertex weighted.
 
@@ -118,11 +119,13 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
     between the cut and the wrist, where both solutions agree on the forearm. The body's solve keeps its
     size (a 30k-face character: one solve of 23 bones, not of 63), and the fingers get the hand's
     triangles rather than the body's simplified copy. ``surface``: the body's heat surface made beforehand, as
-    ``attach.bone_heat`` takes it (None: made here)."""
-    from ..attach import bone_heat
+    ``attach.bone_heat`` takes it (None: made here); ``height``: the character's, as ``bone_heat`` takes it
+    (separate pieces, a nail on a finger, take the weights of the body they sit on: ``autorig.weights.pieces``)."""
+    from ..weights.attach import bone_heat, weld_surface
+    from ..weights.pieces import follow_body
 
     names = list(names)
-    weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface),
+    weights = np.hstack([bone_heat(vertices, faces, joints, parents, surface=surface, height=height),
                          np.zeros((len(vertices), len(fingers.names)))])
     column = {n: i for i, n in enumerate(names + fingers.names)}
     for side, status in fingers.status.items():
@@ -137,7 +140,7 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
         local_index = {n: i for i, n in enumerate(local_names)}
         local_parents = [-1, 0] + [local_index[fingers.parents[k]] for k in own]
         local_joints = np.vstack([elbow, wrist, fingers.positions[own]])
-        hand = bone_heat(piece.vertices, piece.faces, local_joints, local_parents)      # [N, 2 + 20]
+        hand = bone_heat(piece.vertices, piece.faces, local_joints, local_parents, height=height)  # [N, 2 + 20]
         # Input vertices of the piece (their welded copy is in it), and how far past the cut each lies.
         slot = np.full(int(piece.weld.max()) + 1, -1)
         slot[piece.ids] = np.arange(len(piece.ids))
@@ -149,7 +152,11 @@ def skin_with_fingers(vertices, faces, joints, parents, names, fingers: Fingers,
         local = np.zeros((len(rows), weights.shape[1]))
         local[:, [column[n] for n in local_names]] = hand[at]
         weights[rows] = (1 - s) * weights[rows] + s * local
-    return weights
+    # The hand's piece is the surface joined to the wrist: nails and rings apart from it take the weights of
+    # the finger they sit on now that the fingers have theirs.
+    weld, Vw, Fw = weld_surface(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
+    first = np.unique(weld, return_index=True)[1]
+    return follow_body(Vw, Fw, weights[first], height)[weld]
 
 
 __all__ = ["FINGERS", "Fingers", "SIDES", "has_hands", "read_fingers", "skin_with_fingers"]

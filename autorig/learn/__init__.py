@@ -26,7 +26,7 @@ from .proportions import (example_positions, fat_joints, feet, fill_from_others,
 
 FOLDS = 3   # calibration folds (whole groups of examples held out together)
 # What a template can learn. "conventions" splits the placement's offset by the examples' sources
-# (``autorig.convention``): it needs "placement", the shared anatomy the conventions are offsets from.
+# (``autorig.embed.convention``): it needs "placement", the shared anatomy the conventions are offsets from.
 PARTS = ("proportions", "penalties", "orientation", "placement", "conventions", "legs", "confidence")
 
 
@@ -139,7 +139,7 @@ def _template(skeleton, per_example: np.ndarray, examples: list[Example], base: 
 def _settings(examples, per_example, say):
     """The learner's view of every example: (settings for Γ, fields [N], the outline's head/tail cue in each
     setting) with the full truth [J, 3] in each setting (``_reduced_settings`` picks the reduced joints)."""
-    from ..orient import _handicap, head_tail_cue
+    from ..embed.orient import _handicap, head_tail_cue
     from ..pipeline import discretize
     from .gamma import Setting
     settings, fields, cues = [], [], []
@@ -168,7 +168,7 @@ def _frames(up: str, front: str) -> list[tuple[str, str]]:
     """The example's own frame first, then every frame orientation detection may weigh against it: up and
     front along the example's up and front axes, either way round (``orient.candidate_frames``), and facing
     sideways."""
-    from ..orient import AXES, candidate_frames
+    from ..embed.orient import AXES, candidate_frames
     left = next(a for a in AXES if a not in (up[-1], front[-1]))
     frames = candidate_frames("auto", "auto", AXES.index(left)) + [(up, left), (up, "-" + left)]
     return [(up, front)] + [f for f in dict.fromkeys(frames) if f != (up, front)]
@@ -297,7 +297,7 @@ def _placed(template, samples, mean_extent: np.ndarray, sources: list[str] | Non
     """``template`` with the placement (alpha, then the offset) fitted on the own-frame rigs among ``samples``;
     with the samples' ``sources``, the offset is one per named convention (``names`` {name: [sources]}), in the
     joints' own frames (``learn.conventions``), instead of one for all, as a fraction of the box."""
-    from ..placement import fit_alpha, fit_offset, learned_placement
+    from ..embed.placement import fit_alpha, fit_offset, learned_placement
     own = [s for s in samples if s.own_frame]
     known = [s.scored.astype(float) for s in own]
     truths, boxes = [s.truth for s in own], [s.extent for s in own]

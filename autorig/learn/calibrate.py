@@ -49,7 +49,7 @@ def rig_sample(field, graph, template, truth: np.ndarray, scored: np.ndarray, ow
     """``template`` embedded and refined on (field, graph) by ``autorig.rig``'s own stages
     (``pipeline.embed_and_refine``), with the learner's search budget; None if it does not fit."""
     from ..errors import RigFailedError
-    from ..landmarks import neck_fraction
+    from ..readoff.landmarks import neck_fraction
     from ..pipeline import embed_and_refine
     from .gamma import SEARCH_BUDGET
     try:
@@ -65,17 +65,17 @@ def sample_row(sample: Sample, template, bone_log_sigma: np.ndarray, convention:
     pipeline's placement stage), in the ``convention`` of the example's artist (the template's default if it
     does not know that one), and with its legs read off the mesh when the template has learned legs (then the
     worst error leaves out the trunk joints whose place is a convention, ``legs.CONVENTION_JOINTS``)."""
-    from ..convention import convention_shift, in_convention
-    from ..placement import learned_placement
+    from ..embed.convention import convention_shift, in_convention
+    from ..embed.placement import learned_placement
     known = convention if convention in (template.conventions or {}) else None
     joints = learned_placement(sample.refined, template, sample.extent, sample.field,
                                shift=convention_shift(template, known), neck=sample.neck)
     joints = in_convention(joints, template, known, sample.field)
     scored = sample.scored
     if template.legs:    # as the pipeline's legs stage places them, judged apart from the trunk's convention
-        from ..legs import limb_joints, read_legs, surface_of
-        from ..head import read_head
-        from ..rump import read_rump
+        from ..readoff.legs import limb_joints, read_legs, surface_of
+        from ..readoff.head import read_head
+        from ..readoff.rump import read_rump
         joints = read_legs(joints, template, *surface_of(sample.field))
         joints = read_rump(joints, template, sample.field.depth, surface_of(sample.field)[0])
         joints = read_head(joints, template, sample.field.depth, surface_of(sample.field)[0])

@@ -3,7 +3,7 @@
 Every example carries its source (``source_of``: a corpus folder's ``source_group``, else its name's prefix,
 ``0ad_boar`` -> ``0ad``, else the folder it lies in). On the calibration rigs (held-out folds, placed by the
 shared anatomy), each example's offset from its artist's joints is measured in the joints' own frames
-(``autorig.convention.local_offsets``); a source's convention is the median over its examples (one rig the
+(``autorig.embed.convention.local_offsets``); a source's convention is the median over its examples (one rig the
 embedding got wrong does not move it), shrunk toward the mean of all sources' by ``SHRINK`` examples' worth (a
 ridge prior), so that a source of one or two characters does not make a convention of one artist's odd joint.
 
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..convention import local_offsets
+from ..embed.convention import local_offsets
 
 # How many examples' worth of pull toward the mean of the sources' conventions each one gets per joint.
 SHRINK = 2.0

@@ -1,7 +1,7 @@
 """Rigged characters to learn from: the corpus layout (``joints.json`` with a template map, ``mesh.obj``,
 ``weights.npz``) or rigged glTF files (a studio's own characters sharing one skeleton).
 
-Every example is brought into the template frame by ``autorig.mesh.prepare`` (+y up, facing +z, one unit tall,
+Every example is brought into the template frame by ``autorig.input.mesh.prepare`` (+y up, facing +z, one unit tall,
 feet at y = 0, the bounding box centred in x and z), so that positions of different characters can be averaged.
 """
 from __future__ import annotations
@@ -48,12 +48,12 @@ class Example:
     source: str = ""
 
     def prepared(self):
-        """The mesh in the template frame (``autorig.mesh.PreparedMesh``), centred on the body's mid-plane as
+        """The mesh in the template frame (``autorig.input.mesh.PreparedMesh``), centred on the body's mid-plane as
         a rig centres it (``orient.centre_on_mid_plane``), made once."""
         if "_prepared" not in self.__dict__:
-            from ..distance import SurfaceQuery
-            from ..mesh import check_mesh, prepare
-            from ..orient import mid_plane
+            from ..discretize.distance import SurfaceQuery
+            from ..input.mesh import check_mesh, prepare
+            from ..embed.orient import mid_plane
             V, F = check_mesh(self.vertices, self.faces, self.name)
             prepared = prepare(V, F, self.up, self.front, name=self.name, checked=True)
             x = mid_plane(SurfaceQuery(*prepared.coarse()).distance, prepared.work_vertices)
@@ -107,7 +107,7 @@ def read_example(path: Path, base: Template | None = None) -> Example | None:
 
 
 def _read_corpus(folder: Path, base: Template) -> Example | None:
-    from ..mesh import load_mesh
+    from ..input.mesh import load_mesh
     try:
         meta = json.loads((folder / "joints.json").read_text())
         joints = meta.pop("joints")

@@ -38,7 +38,7 @@ class Setting:
 
     graph      the sphere graph in that frame
     truth      [K, 3] the example's reduced joints in that frame
-    handicap   the orientation handicap of that frame (``autorig.orient``)
+    handicap   the orientation handicap of that frame (``autorig.embed.orient``)
     example    index of the example
     field      the distance field in that frame (the calibration refines rigs in it)
     frame      "own", "back" (facing backwards, the same up) or "other"

@@ -1,6 +1,6 @@
 """How much orientation detection should trust the head/tail cues, learned from the examples.
 
-Detection (``autorig.orient``) ranks candidate frames by embedding penalty plus a prior: the glTF convention's
+Detection (``autorig.embed.orient``) ranks candidate frames by embedding penalty plus a prior: the glTF convention's
 handicap minus the weighted cues (``orient.weighted_cues``): ``head_tail`` times the outline's cue
 (``orient.head_tail_cue``) and ``head_bulk`` times the limb ends' bulk (``ends.end_bulk_cue``). For a
 four-legged template the embedding facing backwards often costs less than the right one, so front and back are
@@ -33,8 +33,8 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
     examples whose own frame does not win clearly (by MARGIN) without the cues and with them."""
     from scipy.optimize import minimize
 
-    from ..ends import end_bulk_cue
-    from ..orient import DECISION_EXPANSIONS, DETECTION_EXPANSIONS, _embedding_cost, _problem
+    from ..embed.ends import end_bulk_cue
+    from ..embed.orient import DECISION_EXPANSIONS, DETECTION_EXPANSIONS, _embedding_cost, _problem
     # Facing backwards is what detection compares on a long search; the other frames it ranks on a short one.
     costs = np.array([_embedding_cost(_problem(s.graph, template), DECISION_EXPANSIONS if s.frame in ("own", "back")
                                       else DETECTION_EXPANSIONS)[0] for s in settings])

@@ -1,4 +1,4 @@
-"""Learn where a four-legged animal's leg joints sit on its legs as the mesh shows them (``autorig.legs``).
+"""Learn where a four-legged animal's leg joints sit on its legs as the mesh shows them (``autorig.readoff.legs``).
 
 For every example, its legs are measured around its artist's own joints (``legs.measure_legs``), and for
 each leg joint the example has:
@@ -10,8 +10,8 @@ each leg joint the example has:
              side, z forward): the median over the examples, so that one odd rig does not move every leg
 
 Returns {joint name: {"height": [FEATURES] (only for ``HEIGHT_FROM_LEGS``), "offset": [ox, oz]}}, with the
-tail base's rule read off the rump ({"tail_base": {"rump": [k, m]}}, ``autorig.rump.learn_rump``), the head's
-read off the snout ({"head": {"snout": [k, m]}}, ``autorig.head.learn_head``), and a
+tail base's rule read off the rump ({"tail_base": {"rump": [k, m]}}, ``autorig.readoff.rump.learn_rump``), the head's
+read off the snout ({"head": {"snout": [k, m]}}, ``autorig.readoff.head.learn_head``), and a
 report; joints fewer than ``MIN_EXAMPLES`` examples have, and the paws, are left to the placement.
 
 Which joints take what was chosen by cross-validation over the corpus's species groups (16 animals, 4 folds as
@@ -44,7 +44,7 @@ def _role(name: str) -> str:
 def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]:
     """({joint name: rule}, report) from ``examples`` (``learn.examples.Example``) and their joints in the
     template frame ``per_example`` [N, J, 3]; only the joints each example maps count."""
-    from ..legs import joint_features, legs_of, measure_legs
+    from ..readoff.legs import joint_features, legs_of, measure_legs
 
     mirror = template.mirror_of()
     samples: dict[int, list] = {}
@@ -81,11 +81,11 @@ def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]
             rule = {"height": [round(float(c), 4) for c in coef], **rule}
         for j in {key, int(mirror[key])}:
             rules[template.names[j]] = rule
-    from ..rump import JOINT, learn_rump
+    from ..readoff.rump import JOINT, learn_rump
     rump, rumps = learn_rump(examples, per_example, template)
     if rump is not None:
         rules[JOINT] = {"rump": rump}
-    from ..head import JOINT as HEAD, learn_head
+    from ..readoff.head import JOINT as HEAD, learn_head
     head, heads = learn_head(examples, per_example, template)
     if head is not None:
         rules[HEAD] = {"snout": head}

@@ -29,7 +29,7 @@ def end_bulk_cue(graph, vertices: np.ndarray) -> float:
 
     graph: the sphere graph (centers [S, 3], radii [S], distances [S, S]) in a candidate frame (+y up, front
     along z); vertices [V, 3] the surface's vertices in that frame."""
-    from .embed.penalties import PROMINENCE, prominences
+    from .penalties import PROMINENCE, prominences
     prominence = prominences(graph)
     tips = np.flatnonzero(prominence >= PROMINENCE)
     if len(tips) <= FEET:

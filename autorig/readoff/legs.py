@@ -290,7 +290,7 @@ def parse_legs(value, names, bad) -> dict | None:
     def numbers(v, n=2):
         return (isinstance(v, list) and len(v) == n
                 and all(isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) < 100 for x in v))
-    def rule(r):    # a leg joint's, the tail base's read off the rump (``autorig.rump``) or the head's (``.head``)
+    def rule(r):    # a leg joint's, the tail base's read off the rump (``readoff.rump``) or the head's (``.head``)
         return isinstance(r, dict) and (
             (len(r) == 1 and set(r) <= READ_OFF and numbers(next(iter(r.values()))))
             or (not set(r) & READ_OFF and ("height" not in r or numbers(r["height"], FEATURES))

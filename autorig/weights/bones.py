@@ -1,7 +1,7 @@
 """Which bones of a user's skeleton heat the surface (``autorig MESH --skeleton FILE``).
 
 An artist's skeleton is not a template: it has joints that carry no bone, bones that lie outside the body and
-joints stacked on one another. Bone heat (``autorig.attach``) treats every bone as a heat source, so before it
+joints stacked on one another. Bone heat (``autorig.weights.attach``) treats every bone as a heat source, so before it
 runs each bone is judged by the mesh's geometry alone (never by names or flags in the file):
 
 - a bone of (almost) no length heats nothing: it has no direction, and at a tie it would only take a share of
@@ -28,7 +28,7 @@ runs each bone is judged by the mesh's geometry alone (never by names or flags i
   of non-zero length heats, so that every vertex is still weighted.
 
 The percentages are benchmarks/skeleton_weights.py's dominant-joint agreement with the artists' weights. All
-lengths here are in the canonical frame of ``autorig.mesh.prepare`` (the mesh one unit long along its
+lengths here are in the canonical frame of ``autorig.input.mesh.prepare`` (the mesh one unit long along its
 longest side), so the rules do not depend on the mesh's units.
 """
 from __future__ import annotations
@@ -50,7 +50,7 @@ TIP_SEARCH = 2.0        # how far past a leaf to look for the exit, as a multipl
 
 @dataclass
 class HeatPlan:
-    """The bones that heat the surface, in the form ``autorig.attach.bone_heat`` takes them.
+    """The bones that heat the surface, in the form ``autorig.weights.attach.bone_heat`` takes them.
 
     joints   [J + T, 3] the skeleton's J joints, then one virtual tip joint per leaf given a tip bone
     parents  [J + T] heating structure: for a skeleton joint c, its parent if the bone parent -> c heats, else -1

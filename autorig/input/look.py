@@ -1,4 +1,4 @@
-"""The input's look, read at the edge beside ``autorig.mesh``: UVs, vertex colours, normals, materials and
+"""The input's look, read at the edge beside ``autorig.input.mesh``: UVs, vertex colours, normals, materials and
 textures, so that the rigged file looks like the input (see ``autorig.result.Look``).
 
     look = load_look("pig.obj", faces)       # faces: load_mesh's triangles, which the look's must match
@@ -24,18 +24,21 @@ from pathlib import Path
 import numpy as np
 
 from .confine import Dropped
-from .errors import InputError
+from ..errors import InputError
 from .limits import read_regular
 from .mesh_files import obj_text
-from .result import Image, Look
+from ..result import Image, Look
 
-__all__ = ["load_look", "material_files"]
+__all__ = ["load_look", "matching_look", "material_files"]
 
 
-def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) -> Look | None:
+def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False, data: bytes | None = None
+              ) -> Look | None:
     """The look of the mesh file ``path`` whose triangles ``load_mesh`` read as ``faces`` [F, 3], or None.
+    ``data``: an OBJ's bytes, when the caller has read them already (``autorig.input.read``: each input file is
+    read once).
 
-    Raises ``InputError`` for an unreadable file; a missing, refused (``autorig.confine``: outside the mesh's
+    Raises ``InputError`` for an unreadable file; a missing, refused (``autorig.input.confine``: outside the mesh's
     folder unless ``allow_outside``) or unusable MTL or texture only leaves that part out, recorded in
     ``Look.dropped``; OBJ texture coordinates or normals that do not parse or point past the file's leave the
     whole look out.
@@ -43,17 +46,22 @@ def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) 
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".glb", ".gltf"):
-        from .exchange.gltf import read_gltf_scene
+        from ..exchange.gltf import read_gltf_scene
         look = read_gltf_scene(path, allow_outside)[2]
     elif suffix == ".obj":
         try:
-            look = _obj_look(path, faces, allow_outside)
+            look = _obj_look(path, faces, allow_outside, data)
         except (ValueError, IndexError):
             # Texture coordinates or normals that do not parse or point nowhere: the shape, which load_mesh
             # has checked, still rigs; the look is left out rather than guessed.
             look = None
     else:
         return None
+    return matching_look(look, faces)
+
+
+def matching_look(look: Look | None, faces: np.ndarray) -> Look | None:
+    """``look`` if its triangles are the mesh's ``faces`` [F, 3], else None."""
     if look is not None and not np.array_equal(np.asarray(look.vertex_of)[look.faces], faces):
         # Both readers triangulate the same way; if they ever disagree, a bare rig beats a wrong look.
         return None
@@ -62,11 +70,12 @@ def load_look(path: str | Path, faces: np.ndarray, allow_outside: bool = False) 
 
 # ------------------------------------------------------------------------------------------------------ OBJ
 
-def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool) -> Look | None:
-    try:
-        data = read_regular(path, None)
-    except OSError as e:
-        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool, data: bytes | None) -> Look | None:
+    if data is None:
+        try:
+            data = read_regular(path, None)
+        except OSError as e:
+            raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     # A bare OBJ (most scans) is passed over at the speed of a byte search, with no decoding.
     if not any(_contains(data, key) for key in (b"vt ", b"vn ", b"usemtl", b"mtllib")) and not _has_vertex_colors(data):
         return None
@@ -116,7 +125,7 @@ def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool) -> Look | None
 
 
 def _statements(lines: list[str]):
-    """Line-by-line parse of the OBJ statements the look needs (any file ``autorig.mesh`` reads):
+    """Line-by-line parse of the OBJ statements the look needs (any file ``autorig.input.mesh`` reads):
     (vertex count, colours [V, 3] or None, UVs [T, 2], normals [N, 3], corners [3F, 3] (v, vt, vn) 0-based
     and -1 where absent, face_material [F], face_part [F], material names, part names, MTL libraries)."""
     positions, colors, uvs, normals = 0, [], [], []
@@ -197,7 +206,7 @@ def _statements_fast(lines: list[str]):
         first = f[0].split()[0]
         slashes, empty_uv = first.count("/"), "//" in first
         # Every corner written like the first; a mix that adds up the same is caught by the caller's check of
-        # the vertex indices against autorig.mesh's.
+        # the vertex indices against autorig.input.mesh's.
         if (counts.min() < 3 or faces_text.count("/") != corners * slashes
                 or faces_text.count("//") != (corners if empty_uv else 0)):
             return None
@@ -271,7 +280,7 @@ def _has_vertex_colors(data: bytes) -> bool:
 
 def _corner(spec: str, positions: int, uvs: int, normals: int) -> tuple[int, int, int]:
     """One ``f`` corner ``v``, ``v/vt``, ``v//vn`` or ``v/vt/vn`` as 0-based indices (-1 where absent);
-    negative indices count back from the latest element, as ``autorig.mesh`` reads them."""
+    negative indices count back from the latest element, as ``autorig.input.mesh`` reads them."""
     fields = spec.split("/")
     out = []
     for k, count in enumerate((positions, uvs, normals)):
@@ -350,7 +359,7 @@ _MAP_OPTIONS_WITH_VALUES = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "
 def _read_materials(obj_path: Path, libraries: list[str], names: list[str], allow_outside: bool = False
                     ) -> tuple[list[dict], list[dict], list[Image], list[Dropped]]:
     """glTF materials for ``names`` (in that order) from the MTL files, the textures and images they use, and
-    the MTL files and maps left out (missing, refused by ``autorig.confine``, not PNG or JPEG)."""
+    the MTL files and maps left out (missing, refused by ``autorig.input.confine``, not PNG or JPEG)."""
     from .confine import Refused, image_problem, inside
 
     root = obj_path.parent
@@ -396,7 +405,7 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str], allo
             except OSError as e:
                 dropped.append(Dropped(f"material {material!r} {key}", file, _unreadable(e)))
                 return None
-            from .exchange.gltf_look import image_mime_type
+            from ..exchange.gltf_look import image_mime_type
             mime = image_mime_type(data)
             if not mime:
                 dropped.append(Dropped(f"material {material!r} {key}", file, image_problem(data, file)))

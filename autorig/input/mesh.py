@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import AutorigError, InputError
+from ..errors import AutorigError, InputError
 from .limits import MAX_FACES, check_faces, check_file_size, read_regular
 from .facing import face_cross, outward, used_vertices
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
@@ -57,38 +57,49 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
 
     A glTF scene is flattened: each mesh node's vertices are moved by the node's world transform, and the nodes
     are concatenated in order of their node names (see ``autorig.exchange.gltf.read_gltf_scene``). Point clouds
-    and lines in a scene are ignored. Materials and textures are not read here (``autorig.look`` does).
+    and lines in a scene are ignored. Materials and textures are not read here (``autorig.input.look`` does).
 
     Raises ``InputError`` (one line naming the file) for a missing or unreadable file, an unknown format,
     content that is not a mesh, and for meshes that cannot be rigged (see ``check_mesh``); also, before
     anything is allocated for them, for counts the file declares but does not hold, for more than
     ``max_faces`` triangles (None: no limit) and for a mesh too big for the memory available
-    (``autorig.limits``). A glTF's buffer files must lie in its folder unless ``allow_outside``
-    (``autorig.confine``).
+    (``autorig.input.limits``). A glTF's buffer files must lie in its folder unless ``allow_outside``
+    (``autorig.input.confine``).
     """
     path = check_mesh_path(path)
     suffix = path.suffix.lower()
     check_file_size(path)
     if suffix in (".obj", ".off"):
-        try:
-            data = read_regular(path, None)
-        except OSError as e:
-            raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
-        if suffix == ".obj":  # every polygon line is one triangle or more
-            check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
-        text = as_text(data, path, FORMATS[suffix])
-        try:
-            vertices, faces = parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
-        except OverflowError:  # "f 1 2 99999999999999999999999"
-            raise InputError(f"{path}: a face index too large for any mesh") from None
+        vertices, faces = parse_mesh_bytes(read_file(path), path, max_faces)
     elif suffix in (".glb", ".gltf"):
-        from .exchange.gltf import read_gltf_scene
+        from ..exchange.gltf import read_gltf_scene
         vertices, faces, _ = read_gltf_scene(path, allow_outside, max_faces, look=False)
     else:
         check_header(path, suffix, max_faces)
         vertices, faces = load_with_trimesh(path, suffix)
     check_faces(len(faces), max_faces, str(path))
     return check_mesh(vertices, faces, name=str(path))
+
+
+def read_file(path: Path) -> bytes:
+    """The bytes of the mesh file ``path``; ``InputError`` if it cannot be read."""
+    try:
+        return read_regular(path, None)
+    except OSError as e:
+        raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
+
+
+def parse_mesh_bytes(data: bytes, path: Path, max_faces: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of an OBJ or OFF file's bytes ``data`` (``path`` names the file and its format), not
+    yet checked by ``check_mesh``."""
+    suffix = path.suffix.lower()
+    if suffix == ".obj":  # every polygon line is one triangle or more
+        check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
+    text = as_text(data, path, FORMATS[suffix])
+    try:
+        return parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+    except OverflowError:  # "f 1 2 99999999999999999999999"
+        raise InputError(f"{path}: a face index too large for any mesh") from None
 
 
 def check_mesh_path(path: str | Path) -> Path:
@@ -338,13 +349,30 @@ class PreparedMesh:
     def coarse(self, max_faces: int = COARSE_FACES) -> tuple[np.ndarray, np.ndarray]:
         """The working mesh, simplified to at most ``max_faces`` triangles when it has more:
         (vertices [W', 3], faces [G', 3]) in the canonical frame. Dense scans carry far more triangles than
-        the skeleton's discretization can use; quadric decimation (fast-simplification) keeps the shape."""
+        the skeleton's discretization can use; quadric decimation (fast-simplification) keeps the shape.
+        The decimation sees the mesh in an order of its own (``canonical_order``): the file's vertex order and
+        each triangle's first corner do not change which edges it collapses."""
         if len(self.work_faces) <= max_faces:
             return self.work_vertices, self.work_faces
         import fast_simplification
-        vertices, faces = fast_simplification.simplify(self.work_vertices, self.work_faces.astype(np.int32),
-                                                       target_count=max_faces)
+        vertices, faces = canonical_order(self.work_vertices, self.work_faces)
+        vertices, faces = fast_simplification.simplify(vertices, faces.astype(np.int32), target_count=max_faces)
         return np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+
+
+def canonical_order(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of the same surface in an order read off its geometry: vertices sorted by position,
+    each triangle turned to start at its lowest vertex (its winding kept), triangles sorted. Two files of one
+    mesh that list its vertices or corners in other orders give the same arrays (vertices at one position
+    keep their relative order)."""
+    order = np.lexsort((vertices[:, 2], vertices[:, 1], vertices[:, 0]))
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    f = rank[faces]
+    first = np.argmin(f, axis=1)
+    f = f[np.arange(len(f))[:, None], (first[:, None] + np.arange(3)) % 3]
+    f = f[np.lexsort((f[:, 2], f[:, 1], f[:, 0]))]
+    return vertices[order], f
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
 """Which way a mesh's pieces face: ``outward`` turns every connected piece that faces inward inside out, for the
-prepared working copy (``autorig.mesh.prepare``); plus the two array helpers it shares with ``autorig.mesh``.
+prepared working copy (``autorig.input.mesh.prepare``); plus the two array helpers it shares with
+``autorig.input.mesh``.
 
 Exports that face inward would make every winding number negative, and so the whole mesh "outside"; pieces are
 judged one by one because a model made of parts can have some parts right and others reversed.

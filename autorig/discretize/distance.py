@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .limits import MAX_FIELD_POINTS, check_layers, over_budget
+from ..input.limits import MAX_FIELD_POINTS, check_layers, over_budget
 
 # Offsets of a cell's 8 corners in units of the cell edge, in the order used for trilinear weights.
 CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int64)

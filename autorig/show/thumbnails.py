@@ -1,6 +1,6 @@
 """The review page's thumbnails (``autorig batch --html``), drawn with Pillow instead of matplotlib.
 
-The same views as ``autorig.preview`` (front and side, or top and the wider of those for a flat shape; mesh
+The same views as ``autorig.show.preview`` (front and side, or top and the wider of those for a flat shape; mesh
 coloured by strongest joint, shaded from the camera and painted far to near, bones and joints over it), without
 what a 160-pixel picture cannot show legibly (title, labels, legend). matplotlib took 0.2-0.4 s a view, most of
 it building a figure, paths and artists for a picture a few kilobytes big; Pillow fills the same polygons in
@@ -14,9 +14,9 @@ from io import BytesIO
 
 import numpy as np
 
-from .mesh import frame_rotation
-from .preview import choose_views, joint_colours
-from .result import Rig
+from ..input.mesh import frame_rotation
+from .preview import choose_views, joint_colours, simplified
+from ..result import Rig
 
 __all__ = ["render_thumbnails"]
 
@@ -35,7 +35,7 @@ _TIP_DIAMETER = 2.3
 def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front: str | None = None,
                       quality: int = 70) -> dict[str, bytes]:
     """Small pictures of ``rig`` for a page of many rigs (``autorig batch --html``): {view: WebP bytes} for the
-    two views ``autorig.preview.render_preview`` draws ("front" and "side"; "top" and one of those for a flat
+    two views ``autorig.show.preview.render_preview`` draws ("front" and "side"; "top" and one of those for a flat
     shape), each ``height`` pixels high and as wide as the view needs (at most twice as wide).
 
     up, front  as for ``render_preview``
@@ -50,7 +50,7 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
     faces = np.asarray(rig.faces, dtype=np.int64)
     face_joint = np.argmax(np.asarray(rig.weights)[faces].sum(axis=1), axis=1)             # [F] strongest joint
     if len(faces) > THUMBNAIL_FACES:
-        vertices, faces, face_joint = _simplified(vertices, faces, face_joint, THUMBNAIL_FACES, height)
+        vertices, faces, face_joint = simplified(vertices, faces, face_joint, THUMBNAIL_FACES, height)
     tips = np.array([name.endswith("_end") for name in rig.names], dtype=bool)
     face_colours = joint_colours(len(rig.names))[face_joint]
     pictures = {}
@@ -64,38 +64,6 @@ def render_thumbnails(rig: Rig, height: int = 160, up: str | None = None, front:
         image.save(buffer, format="webp", quality=quality, method=4)
         pictures[name] = buffer.getvalue()
     return pictures
-
-
-def _simplified(vertices: np.ndarray, faces: np.ndarray, face_joint: np.ndarray, count: int, cells: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The mesh (vertices [V, 3], faces [F, 3]) simplified to about ``count`` faces, each new face taking the
-    joint (``face_joint`` [F]) of the original face whose centre is nearest its own: (vertices [V', 3],
-    faces [F', 3], face_joint [F']).
-
-    First vertex clustering on a grid of ``cells`` along the longest side (one cell per output pixel: what it
-    merges is not visible, and it is one np.unique, ~10 ms at 100k faces), then quadric decimation
-    (fast-simplification, as the pipeline's coarse mesh) of what is left: decimating 100k faces directly cost
-    0.1-0.2 s, most of a large asset's thumbnails.
-    """
-    import fast_simplification
-    from scipy.spatial import cKDTree
-
-    low = vertices.min(axis=0)
-    cell = max(float(np.ptp(vertices, axis=0).max()) / cells, 1e-300)
-    grid = np.floor((vertices - low) / cell).astype(np.int64)                  # [V, 3] in 0..cells
-    key = (grid[:, 0] * (cells + 1) + grid[:, 1]) * (cells + 1) + grid[:, 2]
-    _, first, cluster = np.unique(key, return_index=True, return_inverse=True)
-    faces = cluster.reshape(-1)[faces]
-    kept = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    vertices, faces, face_joint = vertices[first], faces[kept], face_joint[kept]
-    if len(faces) <= count:
-        return vertices, faces, face_joint
-    coarse_vertices, coarse_faces = fast_simplification.simplify(vertices, faces.astype(np.int32),
-                                                                 target_count=count)
-    coarse_vertices = np.asarray(coarse_vertices, dtype=np.float64)
-    coarse_faces = np.asarray(coarse_faces, dtype=np.int64)
-    _, nearest = cKDTree(vertices[faces].mean(axis=1)).query(coarse_vertices[coarse_faces].mean(axis=1))
-    return coarse_vertices, coarse_faces, face_joint[nearest]
 
 
 def _draw(vertices, faces, face_colours, joints, bones, tips, screen_x, screen_y, toward_camera, size):

@@ -28,6 +28,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .pieces import follow_body
+
 HEAT_C = 2.0            # c in H_ii = c / d_i^2. The paper uses 1; 2 is closer to artists' sharper weights
                         # (benchmarks/weights_on_gt_skeleton.py: mean L1 -25% to -30%, top-1 no worse)
 TIE_RATIO = 1.0001      # bones this close to the nearest one share its heat (vertices beyond a joint)
@@ -40,7 +42,7 @@ HEAT_MAX_VERTICES = 12_000  # denser surfaces are solved on a simplified copy (s
 _GENERIC_DIRECTION = np.array([0.5377, 0.8335, 0.1274]) / np.linalg.norm([0.5377, 0.8335, 0.1274])
 
 
-def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) -> np.ndarray:
+def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None, height=None) -> np.ndarray:
     """Bone-heat skin weights of a mesh for a skeleton.
 
     vertices [V, 3] float: the mesh as given (may be multi-part, open, non-manifold, with duplicate vertices
@@ -50,7 +52,9 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) ->
     parents  [J] int: parent joint of each joint, -1 for a root; parents come before their children.
     owners   [J] int, optional: for each non-root joint c, the weight column that receives the heat of the
         bone parent(c) -> c. Default ``parents``: a joint owns the bones that leave it, as in glTF skinning.
-    surface  optional: ``heat_surface(vertices, faces)``, made beforehand (``autorig.ahead``).
+    surface  optional: ``heat_surface(vertices, faces)``, made beforehand (``autorig.weights.ahead``).
+    height   the character's height in the mesh's units, for telling separate pieces' sizes
+        (``autorig.weights.pieces``: pieces not connected to the body take its weights); None: the longest side.
 
     Returns W [V, J] float64: W[i, j] is how much vertex i follows joint j's transform. Rows are >= 0 and sum
     to 1; joints that own no bone (tips) get zero columns. A skeleton without any bone (a single joint) gets
@@ -78,6 +82,7 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None) ->
         Wb = _weights_via_coarse_surface(coarse, heads, tails, laplacian)
     else:
         Wb = _bone_weights(Vw, Fw, heads, tails, laplacian)          # [U, B] on welded vertices
+    Wb = follow_body(Vw, Fw, Wb, height, (heads, tails))             # pieces go with the body they sit on
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
     return np.take(Wb @ to_joint, weld, axis=0)                      # = (Wb @ to_joint)[weld], faster
@@ -99,8 +104,8 @@ def heat_surface(V, F):
 
 
 def start_heat_surface(prepared) -> "HeatSurfaceAhead":
-    """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.mesh.PreparedMesh``), begun now on the
-    second core (``autorig.ahead``) when the mesh is dense enough to be simplified for the heat; its
+    """``heat_surface`` of a prepared mesh's vertices and faces (``autorig.input.mesh.PreparedMesh``), begun now on the
+    second core (``autorig.weights.ahead``) when the mesh is dense enough to be simplified for the heat; its
     ``result_for`` gives it to ``bone_heat``'s ``surface``.
 
     Below that the work is mostly too small to pay for the fork: the pages a forked process shares with its

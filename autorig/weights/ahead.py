@@ -1,7 +1,7 @@
 """Work started ahead on the second core: ``Ahead(fn, args)`` runs ``fn(*args)`` in a forked child process
 while this one goes on, and ``.result_if(*args)`` returns its value.
 
-Made for the skin weights: the surface the heat is solved on and its Laplacian (``autorig.attach.heat_surface``)
+Made for the skin weights: the surface the heat is solved on and its Laplacian (``autorig.weights.attach.heat_surface``)
 depend only on the mesh, so they are made while the skeleton stages run (a 1M-face scan: ~1.4 s of quadric
 decimation off the critical path; a 20k-face character with slivers: its intrinsic Delaunay Laplacian).
 fast-simplification and libigl hold the GIL, so a thread would not overlap them.

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .embed.search import MAX_EXPANSIONS
+from .search import MAX_EXPANSIONS
 from .ends import FEET_BAND
 
 AXES = ("x", "y", "z")
@@ -249,8 +249,8 @@ def _handicap(up: str, front: str) -> float:
 
 def _problem(graph, template):
     """The embedding problem of ``template`` on ``graph``, or None if the template cannot fit it at all."""
-    from .embed.penalties import build_problem
-    from .errors import RigFailedError
+    from .penalties import build_problem
+    from ..errors import RigFailedError
     try:
         return build_problem(graph, template)
     except RigFailedError:
@@ -260,8 +260,8 @@ def _problem(graph, template):
 def _embedding_cost(problem, expansions: int) -> tuple[float, float]:
     """(penalty of the best embedding found within ``expansions`` A* steps (0: greedy only), a lower bound on
     any embedding's: the penalty itself when the search finished); (inf, inf) if there is none."""
-    from .embed.search import search
-    from .errors import RigFailedError
+    from .search import search
+    from ..errors import RigFailedError
     if problem is None:
         return float("inf"), float("inf")
     try:

@@ -1,5 +1,6 @@
 """Reading mesh files: OBJ and OFF parsed here (fast, keeping the file's vertices and order), PLY and STL through
-trimesh. ``autorig.mesh.load_mesh`` picks the reader and checks what it returns; glTF is ``autorig.exchange.gltf``'s.
+trimesh. ``autorig.input.mesh.load_mesh`` picks the reader and checks what it returns; glTF is
+``autorig.exchange.gltf``'s.
 
 Every problem with the file raises ``InputError`` with one line naming the file and the problem.
 """
@@ -10,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 from .limits import check_declared, check_faces
 
 FORMATS = {".obj": "OBJ", ".off": "OFF", ".ply": "PLY", ".stl": "STL", ".glb": "glTF", ".gltf": "glTF"}

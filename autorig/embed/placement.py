@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .template import Template
+from ..template import Template
 
 
 MAX_STRETCH = 1.33

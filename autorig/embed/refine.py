@@ -1,8 +1,9 @@
 """Continuous refinement: from the discrete embedding to every template joint's position.
 
 First every joint of a collapsed chain is put on its reduced bone's sphere path, at the arc-length fraction
-its template position has along the chain (a tip joint extends the path to the surface, so the joints before
-it sit inside the limb, not at its end). Then all joints move together to minimise, with scipy's L-BFGS-B and
+its template position has along the chain: the path ends at its tip read off the surface
+(``autorig.readoff.tips``: the centroid of the limb's end cap, so the joints before it sit inside the limb,
+not at its end), and its zigzag between sphere centres is smoothed out first. Then all joints move together to minimise, with scipy's L-BFGS-B and
 an exact gradient:
 
 =============  ======  ==================================================================================
@@ -22,26 +23,35 @@ from __future__ import annotations
 
 import numpy as np
 
-from .distance import DistanceField
-from .embed import Embedding
-from .graph import SphereGraph
-from .template import Template
+from ..discretize.distance import DistanceField
+from . import Embedding
+from ..discretize.graph import SphereGraph
+from ..template import Template
 
 TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry": 0.5, "anchor": 0.2}
 ANCHOR_UNIT = 0.05
 BONE_SAMPLES = np.linspace(0.0, 1.0, 6)[1:-1]
+SMOOTH_ROUNDS = 3   # rounds of smoothing of an embedded path before joints are placed along it
 
 
-def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template) -> np.ndarray:
-    """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths."""
+def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface=None) -> np.ndarray:
+    """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths.
+    surface: a ``tips.Surface`` of the mesh in the graph's frame: each tip read off it (the centroid of its
+    limb's end cap) instead of the end sphere pushed out by its radius."""
     reduced = template.reduced()
+    mirror = template.mirror_of()
     positions = np.zeros((len(template.names), 3))
     positions[reduced.joints[0]] = graph.centers[embedding.spheres[0]]
     for k in range(1, len(reduced.joints)):
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
         if template.is_tip(chain[-1]):
-            polyline = _extend_to_surface(polyline, graph.radii[embedding.paths[k][-1]])
+            if surface is None:
+                polyline = _extend_to_surface(polyline, graph.radii[embedding.paths[k][-1]])
+            else:
+                polyline = _end_at(polyline, surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1]))
+        if surface is not None:
+            polyline = _smoothed(polyline)
         seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
         arc = np.concatenate([[0.0], np.cumsum(seg)])
         template_seg = np.linalg.norm(np.diff(template.positions[chain], axis=0), axis=1)
@@ -58,6 +68,24 @@ def _extend_to_surface(polyline: np.ndarray, radius: float) -> np.ndarray:
     direction = polyline[-1] - polyline[-2]
     direction /= max(np.linalg.norm(direction), 1e-12)
     return np.vstack([polyline, polyline[-1] + radius * direction])
+
+
+def _end_at(polyline: np.ndarray, tip: np.ndarray) -> np.ndarray:
+    """The polyline [P, 3] cut before its first point at or past ``tip`` [3] (seen along the line from its
+    start to the tip: a path may run on past a limb's end cap), then ending at the tip."""
+    d = tip - polyline[0]
+    beyond = np.flatnonzero((polyline[1:] - polyline[0]) @ d >= d @ d) + 1
+    return np.vstack([polyline[:beyond[0]] if beyond.size else polyline, tip])
+
+
+def _smoothed(polyline: np.ndarray, rounds: int = SMOOTH_ROUNDS) -> np.ndarray:
+    """The polyline [P, 3] with each inner point moved half-way to its neighbours' mean, ``rounds`` times,
+    its ends kept: the zigzag of a path between packed sphere centres taken out, so that which of two
+    neighbouring spheres the path passes matters little to the arc lengths the joints are placed at."""
+    out = np.array(polyline, float)
+    for _ in range(rounds if len(out) > 2 else 0):
+        out[1:-1] = 0.5 * out[1:-1] + 0.25 * (out[:-2] + out[2:])
+    return out
 
 
 def _point_at(polyline: np.ndarray, arc: np.ndarray, s: float) -> np.ndarray:

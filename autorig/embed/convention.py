@@ -104,7 +104,7 @@ def moved(joints: np.ndarray, offsets: np.ndarray, template, depth: np.ndarray) 
 def convention_named(template, name: str | None):
     """(name, offsets [J, 3]) of ``template``'s convention ``name`` (its default for None), or (None, None)
     for a template without conventions. An unknown name is a ``TemplateError`` listing the known ones."""
-    from .errors import TemplateError
+    from ..errors import TemplateError
     conventions = template.conventions or {}
     if not conventions:
         if name is not None:

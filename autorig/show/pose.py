@@ -1,7 +1,7 @@
 """Move a rig: retarget a BVH motion onto its joints and deform its mesh.
 
     from autorig.exchange.bvh import read_bvh
-    from autorig.pose import retarget, skin
+    from autorig.show.pose import retarget, skin
     animation = retarget(rig, read_bvh("walk.bvh"))          # rig joints over time
     posed = skin(rig, animation.rotations[10], animation.positions[10])   # [V, 3] mesh at frame 10
 
@@ -26,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .exchange.bvh import Motion
-from .mesh import frame_rotation
-from .hands.names import motion_names as finger_motion_names
-from .naming import template_names
-from .result import Rig
+from ..errors import InputError
+from ..exchange.bvh import Motion
+from ..input.mesh import frame_rotation
+from ..hands.names import motion_names as finger_motion_names
+from ..naming import template_names
+from ..result import Rig
 
 __all__ = ["BIPED_MAP", "Animation", "joint_map", "read_map", "retarget", "skin"]
 

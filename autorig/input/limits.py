@@ -13,7 +13,7 @@ import os
 import stat
 from pathlib import Path
 
-from .errors import InputError, RigFailedError
+from ..errors import InputError, RigFailedError
 
 # Default of --max-faces: five times the largest mesh the speed table measures (1M faces, ~1 GB).
 MAX_FACES = 5_000_000

@@ -94,7 +94,7 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
 
     keep_mask = samples.radii > min_radius
     if not keep_mask.any():
-        from .errors import RigFailedError
+        from ..errors import RigFailedError
         raise RigFailedError("the mesh encloses no volume that a skeleton could sit in (is it an open sheet, "
                              "or much thinner than it is wide?)")
     points, radii = samples.points[keep_mask], samples.radii[keep_mask]

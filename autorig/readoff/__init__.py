@@ -1,0 +1,1 @@
+"""Read-offs from the mesh: legs, rump, head, landmarks and the rest pose, measured on the surface."""

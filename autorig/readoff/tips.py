@@ -1,0 +1,139 @@
+"""Where a limb ends: tips read off the surface by a rule that moves little when the mesh moves little.
+
+The embedding says which limb a tip belongs to (the sphere its reduced bone ends on); it does not say where on
+that limb's end the tip goes well. Its end sphere is one of several small spheres packed greedily into the end
+of a limb, and which of them is packed flips when the mesh moves by a millionth of its height: a head's end
+sphere jumped from the crown to the face, a tail's from its tip to its middle (7-29 % of the height).
+
+Here the tip is a continuous function of the surface:
+
+1. ``reach(v)``: how far each surface vertex is from the body's core, measured along the surface: the
+   geodesic (mesh-edge) distance from a virtual source joined to the vertices nearest the core's centre (the
+   largest inscribed spheres'), each by how much farther it lies than the nearest (so a vertex entering
+   that set enters at the reach it had). A minimum of continuous functions: continuous.
+2. From the surface vertex nearest the embedding's end sphere, climb ``reach`` to its local maximum: the far
+   end of that limb (a crown, a snout, a toe, a tail's tip). Any start in the limb climbs to the same end.
+3. The tip is the centroid of the limb's cap around that end: the vertices connected to it whose reach is
+   within ``CAP`` (a fraction of the height) of the end's, each weighed by its area and by how near the top
+   of the cap it lies (a weight falling smoothly to 0 at the cap's edge). Two nearly equal maxima on a
+   round crown share one cap, so the tip does not jump between them; a vertex entering the cap enters
+   with weight 0.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+CAP = 0.03    # the cap's depth, as a fraction of the height (the canonical frame is one unit tall)
+NEAR = 0.02   # the source's reach: vertices this much farther from the core than the nearest one
+PIECE = 0.1   # a piece whose box's diagonal is shorter than this (fraction of the height) holds no limb
+
+
+class Surface:
+    """A triangle surface's edge graph and reach from a core point, for reading tips off it."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, core: np.ndarray):
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        self.vertices = np.asarray(vertices, float)
+        faces = np.asarray(faces, np.int64)
+        V = len(self.vertices)
+        e = np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+        e = np.unique(np.sort(e, axis=1), axis=0)
+        e = e[e[:, 0] != e[:, 1]]
+        length = np.linalg.norm(self.vertices[e[:, 0]] - self.vertices[e[:, 1]], axis=1)
+        self.edges = e
+        # Vertex V is the virtual source, joined to the surface nearest the core: in each piece large enough
+        # to hold a limb (a separate head or leg; not a nail, an eye or a tooth), to every vertex within NEAR
+        # of that piece's nearest one, by how much farther from the core than the body's nearest it lies.
+        from scipy.sparse.csgraph import connected_components
+        straight = np.linalg.norm(self.vertices - np.asarray(core, float), axis=1)
+        pieces = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(V, V))
+        _, piece = connected_components(pieces, directed=False)
+        used = np.zeros(V, bool)
+        used[faces.ravel()] = True
+        lo = np.full(piece.max() + 1, np.inf)
+        hi = np.full((piece.max() + 1, 3), -np.inf)
+        np.minimum.at(lo, piece[used], straight[used])
+        np.maximum.at(hi, piece[used], self.vertices[used])
+        low = np.full((piece.max() + 1, 3), np.inf)
+        np.minimum.at(low, piece[used], self.vertices[used])
+        large = np.linalg.norm(hi - low, axis=1) >= PIECE
+        if not large.any():
+            large[np.argmax(np.linalg.norm(hi - low, axis=1))] = True
+        self.body = used & large[piece]
+        nearest = float(straight[self.body].min())
+        near = np.flatnonzero(self.body & (straight <= lo[piece] + NEAR))
+        rows = np.concatenate([e[:, 0], e[:, 1], np.full(len(near), V)])
+        cols = np.concatenate([e[:, 1], e[:, 0], near])
+        data = np.concatenate([length, length, straight[near] - nearest])
+        graph = coo_matrix((np.maximum(data, 1e-12), (rows, cols)), shape=(V + 1, V + 1)).tocsr()
+        self.graph = graph[:V, :V]
+        self.reach = dijkstra(graph, indices=V)[:V]
+        self.reach[~np.isfinite(self.reach)] = -np.inf    # vertices of no face
+        # Each vertex's highest neighbour (itself when none is higher), then followed to the top.
+        a = np.concatenate([e[:, 0], e[:, 1]])
+        b = np.concatenate([e[:, 1], e[:, 0]])
+        order = np.lexsort((b, self.reach[b], a))    # by vertex, then its neighbours by rising reach
+        a, b = a[order], b[order]
+        last = np.flatnonzero(np.r_[a[1:] != a[:-1], True])    # each vertex's highest neighbour
+        up = np.arange(V)
+        climbs = self.reach[b[last]] > self.reach[a[last]]
+        up[a[last][climbs]] = b[last][climbs]
+        for _ in range(64):
+            nxt = up[up]
+            if np.array_equal(nxt, up):
+                break
+            up = nxt
+        self.top = up
+        areas = np.linalg.norm(np.cross(self.vertices[faces[:, 1]] - self.vertices[faces[:, 0]],
+                                        self.vertices[faces[:, 2]] - self.vertices[faces[:, 0]]), axis=1) / 6.0
+        self.area = np.bincount(faces.ravel(), weights=np.repeat(areas, 3), minlength=V)
+        from scipy.spatial import cKDTree
+        used = np.flatnonzero(self.body)
+        self._used = used
+        self._tree = cKDTree(self.vertices[used])
+
+    def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray:
+        """[3] the tip of the limb whose end lies nearest the point ``start`` [3]. midline: the tip of a part
+        on the body's mid-plane (x = 0: a head, a tail), whose end may be a mirrored pair (two ears, two
+        horns): the mean of the tips reached from ``start`` and from its mirror image, so that which of
+        the pair the climb reaches does not matter."""
+        start = np.asarray(start, float)
+        if midline:
+            return 0.5 * (self._tip(start, cap) + self._tip(start * [-1.0, 1.0, 1.0], cap))
+        return self._tip(start, cap)
+
+    def _tip(self, start: np.ndarray, cap: float) -> np.ndarray:
+        from scipy.sparse.csgraph import connected_components
+
+        _, i = self._tree.query(start)
+        end = int(self.top[self._used[int(i)]])
+        floor = self.reach[end] - cap
+        inside = np.flatnonzero(self.reach > floor)
+        sub = self.graph[inside][:, inside]
+        _, label = connected_components(sub, directed=False)
+        mine = inside[label == label[np.searchsorted(inside, end)]]
+        weight = self.area[mine] * ((self.reach[mine] - floor) / cap) ** 2
+        if weight.sum() <= 0:
+            return self.vertices[end].copy()
+        return weight @ self.vertices[mine] / weight.sum()
+
+
+def core_of(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """[3] the body's core: the centroid of the volume the surface encloses (its faces facing outward), a
+    continuous function of the vertices (the largest inscribed sphere would sit in a large head)."""
+    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    total = volume.sum()
+    if abs(total) <= 1e-12:
+        return vertices[np.unique(faces)].mean(axis=0)
+    return ((a + b + c) / 4.0 * volume[:, None]).sum(axis=0) / total
+
+
+def surface_for(field) -> Surface:
+    """The ``Surface`` of the mesh a distance field was built on (its working copy), in the field's frame,
+    with its reach measured from the volume's centroid."""
+    vertices = field.surface_vertices
+    faces = getattr(field, "base", field).surface.faces
+    return Surface(vertices, faces, core_of(vertices, faces))

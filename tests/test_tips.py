@@ -1,0 +1,70 @@
+"""Tips read off the surface (``autorig.readoff.tips``): at the ends of the right limbs, and still when the mesh moves
+by a millionth of its height (issue 37: a head's end jumped 7-24 % of the height, a fox's tail end 29 %)."""
+import numpy as np
+import pytest
+
+import autorig
+from autorig.pipeline import RigOptions
+from autorig.samples import mannequin
+from autorig.readoff.tips import Surface, core_of
+
+TIPS = ("head_end", "left_hand_end", "right_hand_end", "left_toe_end", "right_toe_end")
+
+
+@pytest.fixture(scope="module")
+def sample():
+    return mannequin(pose="t", resolution=56)
+
+
+def canonical(sample):
+    """Vertices and joints one unit tall, the mid-plane at x = 0 (the frame tips are read in)."""
+    lo, hi = sample.vertices.min(axis=0), sample.vertices.max(axis=0)
+    scale = hi[1] - lo[1]
+    lo = np.array([(lo[0] + hi[0]) / 2, lo[1], lo[2]])
+    return (sample.vertices - lo) / scale, {n: (p - lo) / scale for n, p in sample.joints.items()}
+
+
+def test_each_tip_is_its_own_limbs_end(sample):
+    vertices, joints = canonical(sample)
+    surface = Surface(vertices, sample.faces, core_of(vertices, sample.faces))
+    for name in TIPS:
+        parent = {"head_end": "head", "left_hand_end": "left_wrist", "right_hand_end": "right_wrist",
+                  "left_toe_end": "left_toe", "right_toe_end": "right_toe"}[name]
+        # Started anywhere in the limb's last bone, the climb reaches the same end.
+        for t in (0.3, 0.7):
+            start = joints[parent] + t * (joints[name] - joints[parent])
+            tip = surface.tip(start, midline=name == "head_end")
+            others = [n for n in TIPS if n != name]
+            assert np.linalg.norm(tip - joints[name]) < min(np.linalg.norm(tip - joints[n]) for n in others)
+            assert np.linalg.norm(tip - joints[name]) < 0.05, name
+
+
+def test_the_core_is_the_volume_centroid():
+    # A closed box from 0 to (1, 2, 3), faces outward: its centroid is its centre, whatever its vertex order.
+    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 2) for z in (0, 3)], float)
+    import trimesh
+    box = trimesh.convex.convex_hull(v)
+    assert np.allclose(core_of(np.asarray(box.vertices), np.asarray(box.faces)), [0.5, 1.0, 1.5])
+
+
+def test_tips_do_not_jump_when_the_mesh_moves_by_a_millionth(sample):
+    vertices, faces = sample.vertices, sample.faces
+    height = np.ptp(vertices[:, 1])
+    base = autorig.rig((vertices, faces), "biped", RigOptions(up="y", front="z"))
+    for seed in range(2):
+        noisy = vertices + np.random.default_rng(seed).uniform(-1e-6, 1e-6, vertices.shape) * height
+        other = autorig.rig((noisy, faces), "biped", RigOptions(up="y", front="z"))
+        for name in TIPS:
+            i = base.names.index(name)
+            assert np.linalg.norm(other.joints[i] - base.joints[i]) / height < 0.005, name
+
+
+def test_a_separate_small_piece_does_not_take_a_tip(sample):
+    """A nail or an eye (a separate piece) near a limb's end does not become the limb's tip."""
+    vertices, joints = canonical(sample)
+    nail = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]]) + joints["left_hand_end"] + [0.004, 0, 0]
+    faces = np.vstack([sample.faces, np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]) + len(vertices)])
+    all_vertices = np.vstack([vertices, nail])
+    surface = Surface(all_vertices, faces, core_of(all_vertices, faces))
+    tip = surface.tip(joints["left_hand_end"] + [0.004, 0.0, 0.0])
+    assert np.linalg.norm(tip - joints["left_hand_end"]) < 0.05
