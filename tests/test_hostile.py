@@ -22,7 +22,7 @@ from test_fuzz import CASE_SECONDS, _bounded
 
 from autorig.cli import cli
 from autorig.errors import printable
-from autorig.limits import read_regular
+from autorig.input.limits import read_regular
 
 
 @pytest.mark.parametrize("name", sorted(FAMILIES))
