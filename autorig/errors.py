@@ -64,3 +64,13 @@ class MissingPackageError(AutorigError):
 def missing_package(what: str, package: str, extra: str) -> MissingPackageError:
     """"WHAT needs PACKAGE: pip install 'autorig[EXTRA]'", the one wording of a missing optional package."""
     return MissingPackageError(f"{what} needs {package}: pip install 'autorig[{extra}]'")
+
+
+def printable(text: str) -> str:
+    """``text`` with control characters, and the undecodable bytes of a file name (surrogates), written as
+    escapes (``\\x1b``, ``\\udce9``): a name or message from a file reaches the terminal and reports as text,
+    never as an escape sequence that clears the screen or moves the cursor."""
+    import re
+    return re.sub(r"[\x00-\x1f\x7f-\x9f\ud800-\udfff]",
+                  lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100 else f"\\u{ord(m.group()):04x}",
+                  text)

@@ -168,12 +168,15 @@ def discretize(prepared, stage=None):
     from .discretize.distance import distance_field
     from .discretize.graph import sphere_graph
     from .discretize.medial import medial_samples, pack_spheres
+    from .input.limits import MAX_SPHERES, over_budget
 
     stage = stage or _stage_timer({})
     with stage("distance field"):
         field = distance_field(*prepared.coarse())
     with stage("medial spheres"):
         spheres = pack_spheres(medial_samples(field), min_radius=field.finest)
+        if len(spheres.radii) > MAX_SPHERES:  # the graph, orientation and search grow with their square
+            raise over_budget("medial spheres", len(spheres.radii), MAX_SPHERES)
     with stage("sphere graph"):
         graph = sphere_graph(field, spheres)
     return field, graph

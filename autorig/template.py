@@ -274,6 +274,8 @@ def load_template(name_or_path: str | Path) -> Template:
             data = json.loads(path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
             raise TemplateError(f"template {path}: not valid JSON ({e})") from None
+        except RecursionError:
+            raise TemplateError(f"template {path}: the JSON nests too deeply") from None
         return template_from_dict(data, default_name=path.stem, source=str(path))
     if text_path not in builtin_names():
         raise TemplateError(f"unknown template {text_path!r}; built-in templates: {', '.join(builtin_names())}, "

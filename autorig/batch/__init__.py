@@ -96,7 +96,10 @@ Files from the asset's own folder
 Failures
     One failing asset never stops the batch: it gets status ``failed`` and its one-line error (so does one
     that asks for Pinocchio output with a skeleton of several roots, which that format cannot hold). An asset
-    that rigged before and fails now loses its old output, which no longer matches its input.
+    that rigged before and fails now loses its old output, which no longer matches its input. Each asset is
+    planned, read and rigged on its own: whatever its reader does, it fails alone; a local worker gives it at
+    most ``worker.ASSET_SECONDS`` (600 s) and ``worker.ASSET_MEMORY`` (8 GB of address space), and ends with
+    the batch however the batch ends (``worker.start_worker``).
     ``BatchResult.exit_code`` is 0 when every asset is rigged (now or in an earlier run) and
     ``EXIT_SOME_FAILED`` (7) when any asset failed, now or, unchanged since, in an earlier run. A rig whose
     confidence is below 0.5 is "doubtful" (``autorig.explain``): rigged, but probably wrong; with
@@ -136,7 +139,7 @@ from .report import write_json_report, write_junit_report
 from .result import EXIT_DOUBTFUL, EXIT_SOME_FAILED, AssetResult, BatchResult
 from .store import (MANIFEST_INTERVAL, MANIFEST_NAME, THUMBNAILS_FOLDER, check_writable, kept_result, make_parent,
                     read_manifest, store_outcome, write_manifest)
-from .worker import Job, cpu_count, require_thumbnails, run_locally
+from .worker import Job, cpu_count, remove_stale_scratch, require_thumbnails, run_locally
 
 __all__ = ["rig_folder", "find_meshes", "BatchResult", "AssetResult", "ConfigError", "ClusterError",
            "write_json_report", "write_junit_report", "DEFAULT_EXTENSIONS", "CONFIG_NAMES", "MANIFEST_NAME",
@@ -212,6 +215,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
     # One batch at a time in an output folder; what a killed one left half-written goes first (batch/lock.py).
     with output_lock(output_dir):
         remove_temporaries(output_dir)
+        remove_stale_scratch()
         plans = plan_assets(input_dir, output_dir, template, options, fmt, extensions, skeleton, skin_options, names)
         manifest_path = output_dir / MANIFEST_NAME
         manifest = read_manifest(manifest_path)
@@ -261,6 +265,9 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                 except InputError as e:  # unreadable, or gone since it was found
                     finished(plan, {"status": "failed", "remember": False, "error": str(e),
                                     "error_type": "InputError"})
+                except Exception as e:  # a bug reading this asset: it fails alone, the batch goes on
+                    finished(plan, {"status": "failed", "remember": False, "error_type": type(e).__name__,
+                                    "error": f"{plan.rel}: internal error: {type(e).__name__}: {e}"})
 
         try:
             if todo:
@@ -275,7 +282,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                              fail_on_doubtful)
         for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
             if path is not None:
-                make_parent(Path(path))
+                make_parent(Path(path), output_dir)
                 write(result, path)
         return result
 

@@ -30,7 +30,9 @@ def output_lock(output_dir: Path) -> Iterator[None]:
     """Hold the output folder's lock while the block runs; ``OutputError`` if another batch holds it."""
     path = output_dir / LOCK_NAME
     try:
-        descriptor = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        if os.path.islink(path):  # planted: replaced, never written through (its target is not ours)
+            os.unlink(path)
+        descriptor = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
     except OSError as e:
         raise OutputError(f"cannot write {path}: {e.strerror or e}") from None
     try:

@@ -13,6 +13,7 @@ from typing import Iterable
 from urllib.parse import unquote
 
 from ..errors import InputError, SkeletonError, TemplateError
+from ..input.limits import read_regular
 from ..version import __version__
 
 DEFAULT_EXTENSIONS = ("obj", "off", "ply", "stl", "glb", "gltf")
@@ -134,7 +135,7 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
                         **({"fingers": True} if how.fingers and loaded != AUTO else {})}
         try:
             files = input_files(input_dir / rel, input_dir, allow_outside)
-        except InputError:
+        except Exception:  # InputError, or a bug: reported as that asset's error when it is read again
             key, size = "", 0  # fails as that asset's error when it is read again to be rigged
         else:
             key = _digest({"input": {name: hashlib.sha256(data).hexdigest() for name, data in files.items()},
@@ -299,12 +300,13 @@ class _Configs:
                     import tomllib
                 except ModuleNotFoundError:  # Python 3.10
                     import tomli as tomllib
-                with open(path, "rb") as f:
-                    data = tomllib.load(f)
+                data = tomllib.loads(read_regular(path).decode("utf-8"))
             else:
-                data = json.loads(path.read_text(encoding="utf-8"))
+                data = json.loads(read_regular(path).decode("utf-8"))
         except (OSError, UnicodeDecodeError, ValueError) as e:  # TOMLDecodeError and JSONDecodeError too
             raise ConfigError(f"{path}: {' '.join(str(e).split())}") from None
+        except RecursionError:
+            raise ConfigError(f"{path}: nests too deeply") from None
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: expected a table of settings")
         settings = self._settings(data, path, allowed=(*_CONFIG_KEYS, *_BATCH_KEYS, "files"), where="")
@@ -391,32 +393,39 @@ def input_files(path: Path, root: Path | None = None, allow_outside: bool = Fals
             raise InputError(f"{path}: a symlink leads outside the input folder {root} "
                              f"(--allow-outside-paths to allow)") from None
     try:
-        files = {path.name: path.read_bytes()}
+        files = {path.name: read_regular(path, None)}
     except OSError as e:
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     folder = path.parent.resolve()
 
     def add(name: str, base: Path = folder) -> Path | None:
-        target = (base / name).resolve()
-        # Only files beside or below the mesh: they have to fit in a worker's scratch folder.
-        if folder in target.parents and target.is_file():
-            files[PurePosixPath(target.relative_to(folder).as_posix()).as_posix()] = target.read_bytes()
-            return target
+        try:
+            target = (base / name).resolve()
+            # Only files beside or below the mesh: they have to fit in a worker's scratch folder.
+            if folder in target.parents and target.is_file():
+                files[PurePosixPath(target.relative_to(folder).as_posix()).as_posix()] = read_regular(target)
+                return target
+        except (OSError, ValueError, RuntimeError):  # a NUL in the name, a symlink loop, a FIFO, too big
+            pass  # not sent: the worker's loader says why it is left out
         return None
 
     if path.suffix.lower() == ".gltf":
         try:
             document = json.loads(files[path.name])
-        except (ValueError, UnicodeDecodeError):
+        except (ValueError, UnicodeDecodeError, RecursionError):
             return files  # not JSON: the loader will say so
-        for item in [*document.get("buffers", []), *document.get("images", [])]:
+        items = []
+        for key in ("buffers", "images"):
+            value = document.get(key) if isinstance(document, dict) else None
+            items += value if isinstance(value, list) else []
+        for item in items:
             uri = item.get("uri") if isinstance(item, dict) else None
             if not isinstance(uri, str) or uri.startswith("data:") or ":" in uri.split("/")[0]:
                 continue
             add(unquote(uri))
     elif path.suffix.lower() == ".obj":
         from ..input.look import material_files
-        for library, maps in material_files(path):
+        for library, maps in material_files(path, allow_outside):
             if add(library) is not None:
                 for name in maps:
                     add(name, (folder / library).parent)

@@ -86,6 +86,8 @@ class BatchProgress:
                                  refresh=True)
 
     def _line(self, text: str) -> None:
+        from ..errors import printable
+        text = printable(text)
         if self.bar is not None:
             self.bar.write(text, file=self.stream)
         else:

@@ -55,6 +55,7 @@ def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
     ``DoubtfulRig``; the suite's ``doubtful`` property counts them."""
     import xml.etree.ElementTree as ET
 
+    from ..errors import printable
     from ..exchange import write_file_atomic
 
     failing = {id(a) for a in result.assets if a.failed or (result.fail_on_doubtful and a.doubtful)}
@@ -88,6 +89,10 @@ def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
                 f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "") + (
                 f", rest pose {asset.rest_pose} ({round(asset.arm_angle) + 0:d} deg)" if asset.rest_pose else
                 "") + (f"; doubtful: {_doubt(asset)}" if asset.doubtful else "")
+    for element in suites.iter():  # XML 1.0 holds no control characters but tab and newline, nor lone surrogates
+        element.attrib = {key: printable(value) for key, value in element.attrib.items()}
+        if element.text:
+            element.text = printable(element.text)
     ET.indent(suites)
     write_file_atomic(path, ET.tostring(suites, encoding="utf-8", xml_declaration=True) + b"\n")
 

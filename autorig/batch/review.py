@@ -44,7 +44,7 @@ def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRI
     """
     from ..exchange import write_file_atomic
     page = review_page(result, Path(os.path.abspath(path)).parent, low)
-    write_file_atomic(path, page.encode("utf-8"))
+    write_file_atomic(path, page.encode("utf-8", "backslashreplace"))  # a file name's undecodable bytes
 
 
 def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> list[AssetResult]:
@@ -106,7 +106,7 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     name = e(asset.input)
     if not asset.failed:
         link = os.path.relpath(os.path.abspath(output_dir / asset.output), page_dir)
-        name = f'<a href="{e(quote(Path(link).as_posix()))}">{name}</a>'
+        name = f'<a href="{e(quote(Path(link).as_posix(), errors="surrogateescape"))}">{name}</a>'
     axes = f" · up {asset.up} · front {asset.front}" if asset.up else ""
     lines = [f'<p class="what">{e(asset.template + axes)}</p>']
     if asset.confidence is not None:

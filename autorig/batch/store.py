@@ -76,7 +76,7 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
     _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
         try:
-            _write_output(out, outcome["data"], fmt, input_dir / plan.rel)
+            _write_output(out, outcome["data"], fmt, input_dir / plan.rel, output_dir)
             if thumbnails:
                 result.thumbnails = _write_thumbnails(output_dir, plan.output, outcome.get("thumbnails", {}))
         except AutorigError as e:
@@ -105,13 +105,10 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
     return result
 
 
-def _write_output(out: Path, data: bytes | dict[str, bytes], fmt: str, source: Path) -> None:
+def _write_output(out: Path, data: bytes | dict[str, bytes], fmt: str, source: Path, output_dir: Path) -> None:
     """Write a worker's output bytes (a file's, or {name: bytes} of a Pinocchio folder) to ``out``."""
     from ..exchange import check_output, write_file_atomic, write_folder_atomic
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise OutputError(f"cannot write {out}: {e.strerror or e}") from None
+    make_parent(out, output_dir)
     check_output(out, fmt, input_path=source)
     if fmt == "pinocchio":
         write_folder_atomic(out, data)
@@ -130,7 +127,7 @@ def _write_thumbnails(output_dir: Path, output: str, pictures: dict[str, bytes])
     written = {}
     for view, data in pictures.items():
         rel = _thumbnail_path(output, view)
-        make_parent(output_dir / rel)
+        make_parent(output_dir / rel, output_dir)
         write_file_atomic(output_dir / rel, data)
         written[view] = rel
     return written
@@ -170,8 +167,26 @@ def check_writable(path: Path, output_dir: Path) -> None:
         raise OutputError(f"cannot write {path}: permission denied in {folder}")
 
 
-def make_parent(path: Path) -> None:
+def make_parent(path: Path, root: Path | None = None) -> None:
+    """Make the folders ``path`` lies in. Below ``root`` (the output folder), a symlink where a folder goes is
+    replaced by a real folder, so that nothing is written through it to where it points."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise OutputError(f"cannot write {path}: {e.strerror or e}") from None
+        if root is not None and _within(path, root):
+            folder = Path(root)
+            for part in path.parent.relative_to(root).parts:
+                folder = folder / part
+                if folder.is_symlink():
+                    folder.unlink()
+                folder.mkdir(exist_ok=True)
+        else:
+            path.parent.mkdir(parents=True, exist_ok=True)
+    except (OSError, ValueError) as e:
+        raise OutputError(f"cannot write {path}: {getattr(e, 'strerror', None) or e}") from None
+
+
+def _within(path: Path, root: Path) -> bool:
+    try:
+        Path(os.path.abspath(path)).relative_to(os.path.abspath(root))
+        return True
+    except ValueError:
+        return False

@@ -17,6 +17,13 @@ from ..quiet import quiet_libraries
 if TYPE_CHECKING:
     from .plan import Plan
 
+# Each asset's budget in a local worker: past ASSET_SECONDS of rigging it fails ("took longer than"), and a
+# worker's address space is capped at ASSET_MEMORY, so that one hostile asset cannot hang the batch or exhaust
+# the machine (the readers' own checks catch the known ones long before: autorig.limits).
+ASSET_SECONDS = 600
+ASSET_MEMORY = 8 << 30
+SCRATCH_PREFIX = "autorig-batch-"
+
 # libigl's own thread pool (its AABB distance queries and winding numbers) reads IGL_NUM_THREADS: without it each
 # worker of "-j 2" would start two threads and the pair would fight over the two cores.
 _THREAD_VARIABLES = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS", "IGL_NUM_THREADS")
@@ -34,6 +41,7 @@ class Job:
     fmt: str
     names: str = "template"
     thumbnails: bool = False
+    timeout: float | None = ASSET_SECONDS
 
 
 def rig_one(job: Job) -> dict:
@@ -45,7 +53,10 @@ def rig_one(job: Job) -> dict:
 
     ahead.ENABLED = False   # the pool keeps every core busy already: no helper processes of its own
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="autorig-batch-") as scratch, quiet_libraries():
+    # The process id in the name: a batch killed while rigging leaves it behind, and the next one removes the
+    # scratch folders of processes no longer running (remove_stale_scratch).
+    with tempfile.TemporaryDirectory(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-") as scratch, quiet_libraries(), \
+            _time_limit(job.timeout):
         source = Path(scratch, "in")
         mesh = source / next(iter(job.files))
         try:
@@ -88,6 +99,12 @@ def rig_one(job: Job) -> dict:
                     "seconds": time.perf_counter() - start}
         except AutorigError as e:
             error, error_type, remember = str(e), type(e).__name__, True
+        except _TimedOut:
+            error, error_type, remember = (f"could not rig: took longer than {job.timeout:g} s (the batch's limit "
+                                           f"per asset)"), "RigFailedError", False
+        except MemoryError:
+            error, error_type, remember = (f"could not rig: needed more than the {ASSET_MEMORY >> 30} GB of memory "
+                                           f"a worker may use"), "RigFailedError", False
         except Exception as e:  # a bug in autorig: report it, and try again on the next run
             error, error_type, remember = f"internal error: {type(e).__name__}: {e}", type(e).__name__, False
         # Messages name the scratch copy; name the asset instead, and always.
@@ -96,6 +113,93 @@ def rig_one(job: Job) -> dict:
             error = f"{job.name}: {error}"
         return {"status": "failed", "remember": remember, "error": error, "error_type": error_type,
                 "seconds": time.perf_counter() - start}
+
+
+class _TimedOut(BaseException):
+    """Raised in a worker by its alarm: a BaseException, so that no ``except Exception`` on the way swallows it."""
+
+
+@contextlib.contextmanager
+def _time_limit(seconds: float | None):
+    """Raise ``_TimedOut`` in the block after ``seconds`` (in the main thread on POSIX; elsewhere no limit).
+    A blocking call (opening a FIFO) is interrupted too; a long call into C ends first."""
+    import signal
+    import threading
+    if not seconds or not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def alarm(signum, frame):
+        raise _TimedOut()
+
+    previous = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def start_worker(parent: int, memory: int | None = ASSET_MEMORY) -> None:
+    """A local worker's first step: end with its parent (the batch), however that ends, SIGKILL included, so
+    that killed batches leave no workers waiting on their pipes for ever; and cap its memory at ``memory``
+    bytes of address space, so that an asset that would need more fails alone (MemoryError)."""
+    import sys
+    import threading
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+        try:  # PR_SET_PDEATHSIG: the kernel sends SIGKILL when the parent ends
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:  # it ended before the call above took hold
+        os._exit(1)
+
+    def watch():  # where PR_SET_PDEATHSIG is not available: poll
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="autorig-parent-watch").start()
+    if memory:
+        try:
+            import resource
+            soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+            if soft == resource.RLIM_INFINITY or soft > memory:
+                resource.setrlimit(resource.RLIMIT_AS, (memory, hard))
+        except (ImportError, ValueError, OSError):
+            pass
+
+
+def remove_stale_scratch() -> None:
+    """Remove the scratch folders (``rig_one``'s) that workers of killed batches left in the temporary folder:
+    those named by a process that no longer runs."""
+    import re
+    import shutil
+    folder = tempfile.gettempdir()
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return
+    for name in names:
+        match = re.fullmatch(re.escape(SCRATCH_PREFIX) + r"(\d+)-\w+", name)
+        if match is None or _running(int(match.group(1))):
+            continue
+        path = os.path.join(folder, name)
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # someone else's process
+    return True
 
 
 def _thumbnails_of(rig) -> dict[str, bytes]:
@@ -116,7 +220,8 @@ def run_locally(jobs: int, work: Iterator[tuple[Plan, Job]], finished) -> None:
     with _one_thread_per_worker():
         broken = True
         while broken:  # a crashed worker breaks the whole pool: the rest of the work goes to a new one
-            with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as executor:
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=start_worker,
+                                     initargs=(os.getpid(),)) as executor:
                 try:
                     broken = drain(executor, 2 * jobs, work, finished,
                                    lost_message="worker process died (crashed or killed) while rigging this asset "

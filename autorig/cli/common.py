@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 
 from ..errors import EXIT_CODES as ALL_EXIT_CODES
-from ..errors import AutorigError, OutputError, missing_package
+from ..errors import AutorigError, OutputError, missing_package, printable
 from ..version import __version__
 
 AXES = ["auto", "x", "y", "z", "-x", "-y", "-z", "+x", "+y", "+z"]
@@ -120,7 +120,7 @@ class DefaultCommandGroup(click.Group):
 
 def _error_line(message: str) -> None:
     """Print ``message`` on stderr as exactly one line, whatever newlines the message carries."""
-    click.echo(" ".join(message.split("\n")), err=True)
+    click.echo(printable(" ".join(message.split("\n"))), err=True)
 
 
 def _set_debug(ctx: click.Context, _param, value: bool) -> None:

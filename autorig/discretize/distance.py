@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..input.limits import MAX_FIELD_POINTS, check_layers, over_budget
+
 # Offsets of a cell's 8 corners in units of the cell edge, in the order used for trilinear weights.
 CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int64)
 
@@ -251,6 +253,7 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     tolerance: largest allowed interpolation error at a cell centre (in height units) before the cell splits.
     max_level, min_level: the finest and coarsest leaf levels (root cube = level 0).
     """
+    check_layers(vertices, faces)
     surface = SurfaceQuery(vertices, faces)
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     size = float((hi - lo).max()) * 1.1
@@ -294,6 +297,8 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     leaves_level, leaves_index, leaves_values = [], [], []
     for level in range(max_level + 1):
         edge = 2 ** (max_level - level)
+        if len(known_depth) + len(cells) > MAX_FIELD_POINTS:  # each cell brings at least one point
+            raise over_budget("distance field points", len(known_depth) + len(cells), MAX_FIELD_POINTS)
         corner_idx = cells[:, None, :] + CORNERS[None, :, :] * edge
         corner_depth = evaluate(corner_idx.reshape(-1, 3), 2 * edge if level else 0)
         corner_depth = corner_depth.reshape(-1, 8)

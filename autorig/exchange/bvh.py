@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..input.limits import read_regular
 
 __all__ = ["Motion", "read_bvh", "parse_bvh"]
 
@@ -104,7 +105,7 @@ def read_bvh(path: str | os.PathLike) -> Motion:
     """Read a ``.bvh`` file; ``InputError`` naming the line if it cannot be read or parsed."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = read_regular(path, None).decode("utf-8", errors="replace")
     except OSError as e:
         raise InputError(f"cannot read {path}: {e.strerror or e}") from None
     return parse_bvh(text, name=str(path))

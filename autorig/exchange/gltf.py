@@ -47,7 +47,7 @@ from .arrays import check_rig, parents_first
 from .files import write_file_atomic
 from .gltf_look import gather_primitives, look_of, write_look
 from .gltf_parts import (buffer_data, file_bytes, joint_parents, node_parents, parse_document, read_accessor,
-                         world_matrices)
+                         check_extensions, root_nodes, world_matrices)
 
 __all__ = ["write_glb", "write_gltf", "glb_bytes", "gltf_bytes", "read_glb", "read_gltf_scene",
            "top4_influences", "vertex_normals"]
@@ -324,6 +324,7 @@ def read_gltf_scene(path: str | os.PathLike, allow_outside: bool = False, max_fa
     data = file_bytes(path)
     try:
         doc = parse_document(data)
+        check_extensions(doc)
         buffers = [buffer_data(doc, b, path, allow_outside) for b in doc.buffers or []]
         nodes = doc.nodes or []
         node_parent = node_parents(nodes)
@@ -359,6 +360,10 @@ def _declared_triangles(doc: GLTF2, mesh_nodes: list[int]) -> int:
             if primitive.mode in (None, pygltflib.TRIANGLES):
                 source = primitive.indices if primitive.indices is not None else primitive.attributes.POSITION
                 total += int(doc.accessors[source].count) // 3
+                # Vertices too: an accessor without a buffer view is zeros of any count the file says.
+                total = max(total, max((int(doc.accessors[a].count) // 3 for a in vars(primitive.attributes).values()
+                                        if isinstance(a, int) and 0 <= a < len(doc.accessors)
+                                        and doc.accessors[a].bufferView is None), default=0))
     return total
 
 
@@ -367,14 +372,8 @@ def _scene_nodes(doc: GLTF2, node_parent: np.ndarray) -> list[int]:
     if not doc.scenes:
         return list(range(len(doc.nodes or [])))
     roots = set(doc.scenes[doc.scene or 0].nodes or [])
-    inside = []
-    for i in range(len(doc.nodes or [])):
-        n = i
-        while node_parent[n] >= 0:
-            n = node_parent[n]
-        if n in roots:
-            inside.append(i)
-    return inside
+    top = root_nodes(node_parent)
+    return [i for i in range(len(doc.nodes or [])) if int(top[i]) in roots]
 
 
 def _has_look(doc: GLTF2, gathered, normals: bool = False) -> bool:

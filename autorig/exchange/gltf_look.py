@@ -22,8 +22,9 @@ import pygltflib
 from pygltflib import GLTF2, Image as GltfImage, Material, Mesh, Node, Primitive, Sampler, Texture
 
 from ..input.confine import Dropped, Refused, image_problem, uri_file
+from ..input.limits import read_regular
 from ..result import Image, Look
-from .gltf_parts import data_uri_bytes
+from .gltf_parts import check_attributes, data_uri_bytes
 
 __all__ = ["Gathered", "gather_primitives", "look_of", "write_look", "image_mime_type"]
 
@@ -73,6 +74,7 @@ def gather_primitives(doc: GLTF2, buffers: list[bytes], mesh_nodes: list[int], t
             attributes = {k: v for k, v in vars(primitive.attributes).items() if v is not None}
             if "POSITION" not in attributes:
                 continue
+            check_attributes(doc, attributes, primitive.indices)
             key = ((part if transforms is not None else None),) + tuple(sorted(attributes.items()))
             if key not in first_vertex:
                 first_vertex[key] = count
@@ -152,11 +154,18 @@ def look_of(doc: GLTF2, buffers: list[bytes], gathered: Gathered, mesh_nodes: li
     with the textures that show it (the materials keep their colours), and recorded in ``Look.dropped``."""
     document = json.loads(doc.to_json())
     images, kept, dropped = [], [], []
+    read: dict = {}  # one file named by 300 images is read once, and its bytes shared (written once)
     for i, source in enumerate(doc.images or []):
         what = f"image {i}" + (f" {source.name!r}" if source.name else "")
-        written = source.uri if isinstance(source.uri, str) else f"buffer view {source.bufferView}"
+        written = (source.uri if isinstance(source.uri, str) else f"buffer view {source.bufferView}"
+                   if source.uri is None else "(a uri that is not a string)")
         try:
-            data = _image_bytes(doc, buffers, source, path, allow_outside)
+            key = (source.uri, source.bufferView) if isinstance(source.uri, (str, type(None))) else None
+            if key is None:
+                raise ValueError("its uri is not a string")
+            if key not in read:
+                read[key] = _image_bytes(doc, buffers, source, path, allow_outside)
+            data = read[key]
             problem = image_problem(data, written if source.uri else "", extensions=True)
         except Refused as e:
             problem = str(e)
@@ -233,7 +242,7 @@ def _image_bytes(doc: GLTF2, buffers: list[bytes], image: GltfImage, path: Path,
         raise ValueError("an image has neither a bufferView nor a uri")
     if image.uri.startswith("data:"):
         return data_uri_bytes(image.uri)
-    return uri_file(image.uri, path.parent, path.parent, allow_outside).read_bytes()
+    return read_regular(uri_file(image.uri, path.parent, path.parent, allow_outside))
 
 
 def image_mime_type(data: bytes) -> str:
@@ -259,7 +268,9 @@ def write_look(doc: GLTF2, look: Look, add, add_bytes, attributes: dict, skin: i
     if look.colors is not None:
         attributes["COLOR_0"] = add(np.asarray(look.colors, dtype=np.float32), pygltflib.FLOAT, "VEC4",
                                     pygltflib.ARRAY_BUFFER)
-    doc.images = [GltfImage(bufferView=add_bytes(image.data), mimeType=image.mime_type or None,
+    views: dict[bytes, int] = {}  # the same bytes, once: one buffer view for every image holding them
+    doc.images = [GltfImage(bufferView=views.setdefault(image.data, add_bytes(image.data)) if image.data not in views
+                            else views[image.data], mimeType=image.mime_type or None,
                             name=image.name or None) for image in look.images] or None
     doc.samplers = [Sampler.from_dict(s) for s in look.samplers] or None
     doc.textures = [Texture.from_dict(t) for t in look.textures] or None

@@ -15,7 +15,7 @@ from pygltflib import GLTF2, Buffer, Node
 
 from ..errors import InputError
 from ..input.confine import Refused, uri_file
-from ..input.limits import check_memory
+from ..input.limits import check_memory, read_regular
 
 _COMPONENT_DTYPES = {
     pygltflib.BYTE: np.int8, pygltflib.UNSIGNED_BYTE: np.uint8,
@@ -27,9 +27,67 @@ _COMPONENT_DTYPES = {
 _TYPE_SIZES = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 
 
+# Component types (5120 BYTE ... 5126 FLOAT; "n": normalized) and types each attribute may have (glTF 2.0,
+# 3.7.2.1); KHR_mesh_quantization allows more, below. Anything else is refused: integer positions that are
+# not meant as such are a grid of coincident points.
+_FLOAT, _UBYTE_N, _USHORT_N = (5126, False), (5121, True), (5123, True)
+_ALLOWED = {"POSITION": ({_FLOAT}, {"VEC3"}), "NORMAL": ({_FLOAT}, {"VEC3"}),
+            "TEXCOORD": ({_FLOAT, _UBYTE_N, _USHORT_N}, {"VEC2"}),
+            "COLOR": ({_FLOAT, _UBYTE_N, _USHORT_N}, {"VEC3", "VEC4"}),
+            "JOINTS": ({(5121, False), (5123, False)}, {"VEC4"}),
+            "WEIGHTS": ({_FLOAT, _UBYTE_N, _USHORT_N}, {"VEC4"}),
+            "indices": ({(5121, False), (5123, False), (5125, False)}, {"SCALAR"})}
+_QUANTIZED = {"POSITION": {(c, n) for c in (5120, 5121, 5122, 5123) for n in (False, True)},
+              "NORMAL": {(5120, True), (5122, True)},
+              "TEXCOORD": {(5120, True), (5122, True), (5120, False), (5121, False), (5122, False), (5123, False)}}
+# Extensions that hold the geometry elsewhere, compressed: autorig cannot read them.
+COMPRESSION = ("KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression")
+
+
+def check_extensions(doc) -> None:
+    """Refuse, by name, a document whose geometry is compressed by an extension autorig does not read."""
+    named = [e for key in ("extensionsUsed", "extensionsRequired") for e in (getattr(doc, key) or [])
+             if isinstance(e, str)]
+    for extension in COMPRESSION:
+        if extension in named:
+            raise ValueError(f"it uses {extension} (compressed geometry), which autorig does not read; export it "
+                             f"uncompressed")
+
+
+def check_attributes(doc, attributes: dict, indices) -> None:
+    """Refuse a primitive's attributes whose accessors have a component type or type the attribute does not
+    allow, texture coordinate or colour sets not numbered from 0 without gaps (a TEXCOORD_1000000 would make a
+    million arrays), or an index accessor of another kind than indices are."""
+    quantized = "KHR_mesh_quantization" in (doc.extensionsUsed or [])
+    sets: dict[str, list[int]] = {}
+    for name, index in [*attributes.items(), *([("indices", indices)] if indices is not None else [])]:
+        base, _, number = name.partition("_") if name != "indices" else (name, "", "")
+        if base in ("TEXCOORD", "COLOR", "JOINTS", "WEIGHTS"):
+            if not number.isdigit() or len(number) > 3:
+                raise ValueError(f"attribute {name[:40]}: not a set number autorig reads")
+            sets.setdefault(base, []).append(int(number))
+        elif name != "indices":
+            base = name if name in _ALLOWED else ""
+        if not base:
+            continue  # application attributes (_FOO), TANGENT: not read
+        if not isinstance(index, int) or not 0 <= index < len(doc.accessors or []):
+            raise ValueError(f"attribute {name}: no accessor {index}")
+        accessor = doc.accessors[index]
+        kind = (accessor.componentType, bool(accessor.normalized))
+        types, shapes = _ALLOWED[base]
+        if kind not in types and not (quantized and kind in _QUANTIZED.get(base, ())):
+            raise ValueError(f"{name}: component type {accessor.componentType}"
+                             f"{' normalized' if accessor.normalized else ''} is not one glTF allows for it")
+        if accessor.type not in shapes:
+            raise ValueError(f"{name}: type {str(accessor.type)[:20]} is not one glTF allows for it")
+    for base, numbers in sets.items():
+        if sorted(numbers) != list(range(len(numbers))):
+            raise ValueError(f"{base} sets {sorted(numbers)[:4]}: glTF numbers them from 0 without gaps")
+
+
 def file_bytes(path: Path) -> bytes:
     try:
-        return path.read_bytes()
+        return read_regular(path, None)
     except OSError as e:
         raise InputError(f"cannot read {path}: {e.strerror or e}") from None
 
@@ -96,17 +154,37 @@ def node_parents(nodes: list[Node]) -> np.ndarray:
     return node_parent
 
 
+def root_nodes(node_parent: np.ndarray) -> np.ndarray:
+    """[N] the root of each node's tree, each node visited once (a chain of 100,000 nodes walked to its root
+    from every node would be 5 billion steps). The hierarchy must have no cycle (``world_matrices`` checks)."""
+    root = np.full(len(node_parent), -1)
+    for start in range(len(node_parent)):
+        chain, n = [], start
+        while root[n] < 0 and node_parent[n] >= 0:
+            chain.append(n)
+            n = node_parent[n]
+        top = root[n] if root[n] >= 0 else n
+        root[n] = top
+        root[chain] = top
+    return root
+
+
 def joint_parents(node_parent: np.ndarray, skin_joints: list[int]) -> np.ndarray:
     """[J] each skin joint's parent joint (an index into ``skin_joints``): its nearest ancestor node that is
     also a joint of the skin, -1 if none (non-joint nodes in between, an armature node above, are skipped)."""
     as_joint = {node: j for j, node in enumerate(skin_joints)}
-    parents = np.full(len(skin_joints), -1)
-    for j, node in enumerate(skin_joints):
-        up = node_parent[node]
-        while up >= 0 and up not in as_joint:
+    above: dict[int, int] = {}  # node -> its nearest joint ancestor's joint index (-1: none), each found once
+
+    def nearest(node: int) -> int:
+        chain, up = [], node_parent[node]
+        while up >= 0 and up not in as_joint and up not in above:
+            chain.append(up)
             up = node_parent[up]
-        parents[j] = as_joint.get(up, -1)
-    return parents
+        found = as_joint[up] if up in as_joint else (above[up] if up >= 0 else -1)
+        above.update((n, found) for n in chain)
+        return found
+
+    return np.array([nearest(node) for node in skin_joints], dtype=np.int64).reshape(-1)
 
 
 def buffer_data(doc: GLTF2, buffer: Buffer, path: Path, allow_outside: bool = False) -> bytes:
@@ -126,11 +204,12 @@ def buffer_data(doc: GLTF2, buffer: Buffer, path: Path, allow_outside: bool = Fa
     except Refused as e:
         shown = buffer.uri if len(buffer.uri) <= 200 else buffer.uri[:60] + "..."
         raise InputError(f"{path}: buffer {shown}: {e}") from None
-    if not file.is_file():  # a FIFO or a device would never end
-        raise ValueError(f"buffer {buffer.uri} is not a file")
+    try:  # a FIFO or a device would never end
+        data = read_regular(file)
+    except OSError as e:
+        raise ValueError(f"buffer {buffer.uri}: {e.strerror or e}") from None
     length = buffer.byteLength if isinstance(buffer.byteLength, int) and buffer.byteLength >= 0 else -1
-    with open(file, "rb") as f:
-        return f.read(length)
+    return data if length < 0 else data[:length]
 
 
 def data_uri_bytes(uri: str) -> bytes:
@@ -145,8 +224,10 @@ def read_accessor(doc: GLTF2, buffers: list[bytes], index: int) -> np.ndarray:
     accessor = doc.accessors[index]
     dtype = np.dtype(_COMPONENT_DTYPES[accessor.componentType]).newbyteorder("<")
     width = _TYPE_SIZES[accessor.type]
+    if not isinstance(accessor.count, int) or accessor.count < 0:
+        raise ValueError(f"accessor {index}: a count that is not a whole number")
     if accessor.bufferView is None:
-        # All zeros, nothing in the file to hold them: only the memory says how many is too many.
+        # All zeros, nothing in the file to hold them: read_gltf_scene checks the counts against max_faces.
         check_memory(accessor.count * width * 8, f"accessor {index}'s {accessor.count:,} zeros", "glTF")
         values = np.zeros((accessor.count, width), dtype=dtype)
     else:
@@ -171,6 +252,9 @@ def _view_array(doc: GLTF2, buffers: list[bytes], view_index: int, offset: int, 
                 width: int) -> np.ndarray:
     view = doc.bufferViews[view_index]
     stride = view.byteStride or dtype.itemsize * width
+    if not isinstance(stride, int) or stride < dtype.itemsize * width or stride > 252:
+        raise ValueError(f"buffer view {view_index}'s byteStride {stride} overlaps its elements of "
+                         f"{dtype.itemsize * width} bytes (or passes glTF's 252)")
     start = (view.byteOffset or 0) + offset
     if count < 0 or offset < 0 or stride < 0 or (view.byteOffset or 0) < 0:
         raise ValueError(f"a negative count, offset or stride in buffer view {view_index}")

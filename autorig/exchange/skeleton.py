@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, SkeletonError
+from ..input.limits import MAX_JOINTS, read_regular
 from ..result import JointNodes
 from .arrays import parents_first
 
@@ -61,14 +62,19 @@ def read_skeleton(path: str | os.PathLike) -> Skeleton:
         raise SkeletonError(f"skeleton {path}: unknown skeleton format {suffix or '(no extension)'!r}; "
                             f"autorig reads {', '.join(SKELETON_FORMATS)}")
     try:
-        data = path.read_bytes()
+        data = read_regular(path, None)
     except OSError as e:
         raise SkeletonError(f"skeleton {path}: cannot read ({e.strerror or e})") from None
     if suffix == ".json":
-        return _from_json(data, path)
-    if suffix == ".bvh":
-        return _from_bvh(data, path)
-    return _from_gltf(data, path)
+        skeleton = _from_json(data, path)
+    elif suffix == ".bvh":
+        skeleton = _from_bvh(data, path)
+    else:
+        skeleton = _from_gltf(data, path)
+    if len(skeleton.names) > MAX_JOINTS:  # each joint's bone heat is one solve over the surface
+        raise SkeletonError(f"skeleton {path}: {len(skeleton.names):,} joints, more than the {MAX_JOINTS:,} "
+                            f"autorig weighs")
+    return skeleton
 
 
 def skeleton_from_joints(names, parents, positions, *, source: str = "skeleton", tips=None, kind: str = "json",
@@ -116,6 +122,8 @@ def _from_json(data: bytes, path: Path) -> Skeleton:
         document = json.loads(data.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as e:
         raise SkeletonError(f"skeleton {path}: not valid JSON ({e})") from None
+    except RecursionError:
+        raise SkeletonError(f"skeleton {path}: the JSON nests too deeply") from None
     joints = document.get("joints") if isinstance(document, dict) else None
     if not isinstance(joints, list):
         raise SkeletonError(f'skeleton {path}: expected an object with a "joints" list')
@@ -192,6 +200,9 @@ def _gltf_skeleton(data: bytes, path: Path) -> Skeleton:
     skin_joints = [int(j) for j in skin.joints or []]
     if not skin_joints:
         raise SkeletonError(f"skeleton {path}: the skin has no joints")
+    if len(skin_joints) > MAX_JOINTS:  # before the walks below
+        raise SkeletonError(f"skeleton {path}: {len(skin_joints):,} joints, more than the {MAX_JOINTS:,} "
+                            f"autorig weighs")
     if len(set(skin_joints)) != len(skin_joints) or min(skin_joints) < 0 or max(skin_joints) >= len(nodes):
         raise SkeletonError(f"skeleton {path}: the skin's joints are not distinct nodes")
 

@@ -79,6 +79,8 @@ def write_usd(rig: Rig, path: str | os.PathLike, kind: str | None = None) -> Non
             write_file_atomic(path, package.read_bytes())
             return
         if images:
+            if (path.parent / texture_folder).is_symlink():  # replaced, never written through
+                (path.parent / texture_folder).unlink()
             (path.parent / texture_folder).mkdir(exist_ok=True)
         for name, data in images.items():
             write_file_atomic(path.parent / name, data)

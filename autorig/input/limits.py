@@ -8,9 +8,12 @@ there is becomes an ``InputError`` (exit 2, one line), never a ``MemoryError`` o
 """
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, RigFailedError
 
 # Default of --max-faces: five times the largest mesh the speed table measures (1M faces, ~1 GB).
 MAX_FACES = 5_000_000
@@ -18,6 +21,80 @@ MAX_FACES = 5_000_000
 BYTES_PER_FACE = 1_100
 # Peak memory per byte of a mesh file while it is read: the bytes, their text, its lines and the parsed arrays.
 BYTES_PER_FILE_BYTE = 6
+# The most bytes read from one file that a mesh names (an MTL, a texture, a glTF buffer or image): larger
+# ones are refused as unreadable (left out, or exit 2 for a buffer).
+MAX_FILE_BYTES = 512 << 20
+# The most joints a --skeleton file may have: skin weights solve once per bone (a 10,000-joint file: 30 s
+# and more); production rigs, faces included, have a few hundred.
+MAX_JOINTS = 1_000
+# Work budgets of the stages a small but pathological shape (a random triangle soup, whose surface fills its
+# box) can blow up: the shared characters need at most ~100,000 distance-field points and ~350 medial spheres;
+# past four to six times that the shape is not a character's skin, and the rig stops with exit 5 rather than
+# take minutes and gigabytes (a 600-triangle soup: 676,000 points, 9,006 spheres, 290 s).
+MAX_FIELD_POINTS = 400_000
+MAX_SPHERES = 2_000
+# Distance and winding-number queries cost in proportion to how many triangles' boxes overlap a point: the sum
+# of the triangles' bounding-box areas over the mesh's is 2-7 for the shared characters' working copies, 28-511
+# for random soups of 100-2,000 triangles (where one query visits most triangles: 400,000 points take minutes).
+MAX_LAYERS = 20.0
+
+
+def over_budget(what: str, count: int, limit: int) -> RigFailedError:
+    """The error of a stage whose work (``count`` of ``what``) passes its budget ``limit``."""
+    return RigFailedError(f"could not rig: the shape needs more than {limit:,} {what} ({count:,}); its surface "
+                          f"fills its box like a random triangle soup, not the closed skin of a character")
+
+
+def read_regular(path, limit: int | None = MAX_FILE_BYTES) -> bytes:
+    """The bytes of the regular file ``path``, at most ``limit`` of them (None: the memory's); a FIFO, a device,
+    a socket or a folder is refused before it is opened for reading (it could block for ever or never end),
+    and so is a file larger than ``limit``: ``OSError`` (its ``strerror`` says why) like any unreadable file."""
+    kind = _kind(os.stat(path).st_mode)
+    if kind:
+        raise OSError(errno.EINVAL, f"not a regular file ({kind})", str(path))
+    # O_NONBLOCK: were it swapped for a FIFO since, opening would not wait for a writer.
+    descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    with os.fdopen(descriptor, "rb") as f:
+        info = os.fstat(descriptor)
+        kind = _kind(info.st_mode)
+        if kind:
+            raise OSError(errno.EINVAL, f"not a regular file ({kind})", str(path))
+        if limit is not None and info.st_size > limit:
+            raise OSError(errno.EFBIG, f"{info.st_size / 2**20:,.0f} MB, more than the {limit >> 20} MB read "
+                                       f"from one file", str(path))
+        if limit is None:
+            check_memory(info.st_size, f"a file of {info.st_size / 1e9:.1f} GB", str(path))
+        data = f.read(info.st_size if limit is None else min(info.st_size, limit) + 1)
+    if limit is not None and len(data) > limit:
+        raise OSError(errno.EFBIG, f"more than the {limit >> 20} MB read from one file", str(path))
+    return data
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular one is ("" for a regular file)."""
+    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "" if stat.S_ISREG(mode) else "not a file"
+
+
+def check_layers(vertices, faces) -> None:
+    """Refuse, before the distance field, a working mesh whose triangles' boxes overlap more than
+    ``MAX_LAYERS`` deep (see above): a soup of large crossing triangles, not a surface."""
+    import numpy as np
+    corners = vertices[faces]
+    extent = corners.max(axis=1) - corners.min(axis=1)
+    box = vertices.max(axis=0) - vertices.min(axis=0)
+
+    def area(e):
+        return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 0] * e[..., 2]
+
+    layers = float(area(extent).sum() / max(area(box), 1e-300))
+    if layers > MAX_LAYERS:
+        raise RigFailedError(f"could not rig: its triangles' boxes overlap {layers:.0f} deep (a character's "
+                             f"skin: under {MAX_LAYERS:.0f}); large crossing triangles, like a random soup, "
+                             f"would take minutes to measure")
 
 
 def check_faces(count: int, max_faces: int | None, name: str) -> None:

@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import InputError
 from ..result import Image, Look
 from .confine import Dropped
+from .limits import read_regular
 from .mesh_files import obj_text
 
 __all__ = ["load_look", "matching_look", "material_files"]
@@ -72,7 +73,7 @@ def matching_look(look: Look | None, faces: np.ndarray) -> Look | None:
 def _obj_look(path: Path, faces: np.ndarray, allow_outside: bool, data: bytes | None) -> Look | None:
     if data is None:
         try:
-            data = path.read_bytes()
+            data = read_regular(path, None)
         except OSError as e:
             raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     # A bare OBJ (most scans) is passed over at the speed of a byte search, with no decoding.
@@ -318,22 +319,29 @@ def _split_seams(table: np.ndarray, positions: int) -> tuple[np.ndarray, np.ndar
 
 # ------------------------------------------------------------------------------------------------------ MTL
 
-def material_files(obj_path: Path) -> list[tuple[str, list[str]]]:
+def material_files(obj_path: Path, allow_outside: bool = False) -> list[tuple[str, list[str]]]:
     """[(an MTL file named by ``mtllib``, relative to the OBJ; the map files it names, relative to it)]: what
-    an OBJ's look reads besides the OBJ (``autorig batch`` sends them to its workers)."""
+    an OBJ's look reads besides the OBJ (``autorig batch`` sends them to its workers). Each library once, read
+    under the rules of the rig itself: in the OBJ's folder (``autorig.confine``) unless ``allow_outside``, a
+    regular file, at most ``limits.MAX_FILE_BYTES``; one that breaks them is left for the rig to report."""
+    from .confine import Refused, inside
     try:
-        text = Path(obj_path).read_bytes().decode("latin-1")
+        text = read_regular(obj_path, None).decode("latin-1")
     except OSError:
         return []
-    found = []
+    root = Path(obj_path).parent
+    found, seen = [], set()
     for line in text.replace("\r", "\n").split("\n"):
         parts = line.partition("#")[0].split()
         if parts[:1] != ["mtllib"]:
             continue
         for library in parts[1:]:
+            if library in seen:
+                continue
+            seen.add(library)
             try:
-                mtl = (Path(obj_path).parent / library).read_bytes().decode("latin-1")
-            except OSError:
+                mtl = read_regular(inside(root, library, root, allow_outside)).decode("latin-1")
+            except (OSError, Refused):
                 found.append((library, []))
                 continue
             maps = [_map_file(statement[1:]) for statement in (l.partition("#")[0].split()
@@ -358,10 +366,10 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str], allo
     statements: dict[str, dict[str, list[str]]] = {}
     folders: dict[str, Path] = {}
     dropped: list[Dropped] = []
-    for library in libraries:
+    for library in dict.fromkeys(libraries):  # each once, however often the OBJ names it
         mtl = obj_path.parent / library
         try:
-            text = inside(root, library, root, allow_outside).read_bytes().decode("latin-1")
+            text = read_regular(inside(root, library, root, allow_outside)).decode("latin-1")
         except Refused as e:
             dropped.append(Dropped("mtllib", library, str(e)))
             continue
@@ -393,7 +401,7 @@ def _read_materials(obj_path: Path, libraries: list[str], names: list[str], allo
             return None
         if where not in image_index:
             try:
-                data = where.read_bytes()
+                data = read_regular(where)
             except OSError as e:
                 dropped.append(Dropped(f"material {material!r} {key}", file, _unreadable(e)))
                 return None

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import AutorigError, InputError
 from .facing import face_cross, outward, used_vertices
-from .limits import MAX_FACES, check_faces, check_file_size
+from .limits import MAX_FACES, check_faces, check_file_size, read_regular
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
 
 # A mesh whose points all lie within this fraction of its size from one plane is a 2D cut-out.
@@ -84,7 +84,7 @@ def load_mesh(path: str | Path, max_faces: int | None = MAX_FACES, allow_outside
 def read_file(path: Path) -> bytes:
     """The bytes of the mesh file ``path``; ``InputError`` if it cannot be read."""
     try:
-        return path.read_bytes()
+        return read_regular(path, None)
     except OSError as e:
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
 
@@ -96,7 +96,10 @@ def parse_mesh_bytes(data: bytes, path: Path, max_faces: int | None) -> tuple[np
     if suffix == ".obj":  # every polygon line is one triangle or more
         check_faces(data.count(b"\nf ") + data.startswith(b"f "), max_faces, str(path))
     text = as_text(data, path, FORMATS[suffix])
-    return parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+    try:
+        return parse_obj(text, path) if suffix == ".obj" else parse_off(text, path, max_faces)
+    except OverflowError:  # "f 1 2 99999999999999999999999"
+        raise InputError(f"{path}: a face index too large for any mesh") from None
 
 
 def check_mesh_path(path: str | Path) -> Path:
@@ -107,6 +110,8 @@ def check_mesh_path(path: str | Path) -> Path:
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not a mesh file")
+    if not path.is_file():  # a FIFO would block its reader for ever, a device never end
+        raise InputError(f"{path}: not a regular file (a FIFO, device or socket), not a mesh file")
     if path.suffix.lower() not in FORMATS:
         known = ", ".join(sorted(FORMATS))
         raise InputError(f"{path}: unknown mesh format {path.suffix or '(no extension)'!r}; autorig reads {known}")

@@ -84,6 +84,8 @@ def _parse_obj_fast(text: str) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     if counts.min() < 3 or index.min() < 1:
         return None
+    if counts.max() > max(len(vertices), 1000):  # the line parser names the line
+        return None
     if counts.max() == 3:   # triangles only: the fan is the table itself (0.1-0.3 s of gathers saved at 1M faces)
         return vertices, index.reshape(-1, 3) - 1
     return vertices, fan(index - 1, counts)
@@ -145,6 +147,9 @@ def _parse_obj_lines(lines: list[str], path: Path) -> tuple[np.ndarray, np.ndarr
                 raise _bad_line(path, lineno, f"malformed face {line.strip()[:60]!r}") from None
             if len(corners) < 3:
                 raise _bad_line(path, lineno, f"a face needs at least three vertices, got {len(corners)}")
+            if len(corners) > max(len(vertices), 1000):  # a million corners among a few hundred vertices: noise
+                raise _bad_line(path, lineno, f"a face of {len(corners):,} corners, more than the "
+                                              f"{len(vertices):,} vertices before it")
             if 0 in corners:
                 raise _bad_line(path, lineno, "vertex index 0 (OBJ indices start at 1)")
             # Negative indices count back from the most recent vertex; an index still negative after this
@@ -200,6 +205,8 @@ def parse_off(text: str, path: Path, max_faces: int | None = None) -> tuple[np.n
             raise _bad_line(path, n, "malformed face") from None
         if k < 3 or len(corners) < k:
             raise _bad_line(path, n, "a face needs a vertex count of at least 3 and that many indices")
+        if k > max(n_vertices, 1000):  # a million corners among a few hundred vertices: a million triangles of noise
+            raise _bad_line(path, n, f"a face of {k:,} corners, more than the file's {n_vertices:,} vertices")
         faces.extend((corners[0], corners[i], corners[i + 1]) for i in range(1, k - 1))
     return (np.array(vertices, dtype=np.float64).reshape(-1, 3),
             np.array(faces, dtype=np.int64).reshape(-1, 3))

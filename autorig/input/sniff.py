@@ -15,6 +15,8 @@ OBJ_WORDS = {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mtllib", "use
 def file_kind(path: str | os.PathLike) -> str | None:
     """The kind of file at ``path`` by its first bytes, or None when unknown or unreadable."""
     try:
+        if not os.path.isfile(path):  # a FIFO would block here, a device never end
+            return None
         with open(path, "rb") as f:
             head = f.read(4096)
             f.seek(0, os.SEEK_END)
