@@ -263,8 +263,10 @@ def test_ctrl_c_stops_a_batch_and_its_workers(tmp_path):
     import time
 
     (tmp_path / "in").mkdir()
-    for k in range(4):
-        (tmp_path / "in" / f"dog{k}.obj").write_bytes((DATA / "dog.obj").read_bytes())
+    # Enough work that the batch is still rigging when the signal comes on a quiet machine (4 small dogs were
+    # all rigged within the half second, and the batch then ended with 0).
+    for k in range(8):
+        (tmp_path / "in" / f"mannequin{k}.obj").write_bytes((DATA / "mannequin.obj").read_bytes())
     autorig_command = Path(sys.executable).with_name("autorig")
     process = subprocess.Popen([str(autorig_command), "batch", str(tmp_path / "in"), "-o", str(tmp_path / "out"),
                                 "-j", "2"], start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
