@@ -26,6 +26,8 @@ import numpy as np
 CAP = 0.03    # the cap's depth, as a fraction of the height (the canonical frame is one unit tall)
 NEAR = 0.02   # the source's reach: vertices this much farther from the core than the nearest one
 PIECE = 0.1   # a piece whose box's diagonal is shorter than this (fraction of the height) holds no limb
+PAIR = 0.1    # two ends within this of each other's mirror images are a mirrored pair (two ears, two horns)
+MIRROR = np.array([-1.0, 1.0, 1.0])
 
 
 class Surface:
@@ -97,12 +99,17 @@ class Surface:
     def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray:
         """[3] the tip of the limb whose end lies nearest the point ``start`` [3]. midline: the tip of a part
         on the body's mid-plane (x = 0: a head, a tail), whose end may be a mirrored pair (two ears, two
-        horns): the mean of the tips reached from ``start`` and from its mirror image, so that which of
-        the pair the climb reaches does not matter."""
+        horns): the mean of the tips reached from ``start`` and from its mirror image when they are such a
+        pair, so that which of the two the climb reaches does not matter."""
         start = np.asarray(start, float)
+        tip = self._tip(start, cap)
         if midline:
-            return 0.5 * (self._tip(start, cap) + self._tip(start * [-1.0, 1.0, 1.0], cap))
-        return self._tip(start, cap)
+            other = self._tip(start * MIRROR, cap)
+            # A mirrored pair when each is the other's mirror image: the other climb did not run off to
+            # another part (a rhino's tail end is no mirror image of its horn).
+            if np.linalg.norm(other * MIRROR - tip) <= PAIR:
+                return 0.5 * (tip + other)
+        return tip
 
     def _tip(self, start: np.ndarray, cap: float) -> np.ndarray:
         from scipy.sparse.csgraph import connected_components
