@@ -34,10 +34,10 @@ BONE_SAMPLES = np.linspace(0.0, 1.0, 6)[1:-1]
 SMOOTH_ROUNDS = 3   # rounds of smoothing of an embedded path before joints are placed along it
 
 
-def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface=None) -> np.ndarray:
-    """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths.
-    surface: a ``tips.Surface`` of the mesh in the graph's frame: each tip read off it (the centroid of its
-    limb's end cap) instead of the end sphere pushed out by its radius."""
+def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface) -> np.ndarray:
+    """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths, each
+    path smoothed and each tip read off ``surface`` (a ``readoff.tips.Surface`` of the mesh in the graph's
+    frame: the centroid of its limb's end cap)."""
     reduced = template.reduced()
     mirror = template.mirror_of()
     positions = np.zeros((len(template.names), 3))
@@ -46,12 +46,8 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
         if template.is_tip(chain[-1]):
-            if surface is None:
-                polyline = _extend_to_surface(polyline, graph.radii[embedding.paths[k][-1]])
-            else:
-                polyline = _end_at(polyline, surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1]))
-        if surface is not None:
-            polyline = _smoothed(polyline)
+            polyline = _end_at(polyline, surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1]))
+        polyline = _smoothed(polyline)
         seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
         arc = np.concatenate([[0.0], np.cumsum(seg)])
         template_seg = np.linalg.norm(np.diff(template.positions[chain], axis=0), axis=1)
@@ -59,15 +55,6 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
         for joint, s in zip(chain[1:], fractions[1:]):
             positions[joint] = _point_at(polyline, arc, s * arc[-1])
     return positions
-
-
-def _extend_to_surface(polyline: np.ndarray, radius: float) -> np.ndarray:
-    """The polyline [P, 3] continued past its last sphere centre by the sphere's radius."""
-    if len(polyline) < 2:
-        return polyline
-    direction = polyline[-1] - polyline[-2]
-    direction /= max(np.linalg.norm(direction), 1e-12)
-    return np.vstack([polyline, polyline[-1] + radius * direction])
 
 
 def _end_at(polyline: np.ndarray, tip: np.ndarray) -> np.ndarray:

@@ -14,6 +14,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from ..input.facing import edge_graph
+
 CUT_BEFORE_WRIST = 0.25   # the cut plane lies this far (x forearm length) before the wrist, towards the elbow,
                           # so that a wrist placed a little into the palm does not cut the thumb's base off
 REACH = 1.5               # the hand lies within this many forearm lengths of the wrist (hands are 0.6-0.8)
@@ -96,7 +98,7 @@ def hand_piece(vertices, faces, wrist, elbow, reach: float = REACH) -> HandPiece
     local[used] = np.arange(len(used))
     HV, HF = V[used], local[F[inside]]
     # The hand is the piece joined to the wrist: the one whose vertices come nearest the wrist point.
-    _, label = connected_components(_edge_graph(HV, HF), directed=False)
+    _, label = connected_components(edge_graph(HV, HF), directed=False)
     piece = label == label[int(np.argmin(np.linalg.norm(HV - wrist, axis=1)))]
     ids = used[piece]
     HV, HF = _subset(HV, HF, piece)
@@ -120,7 +122,7 @@ def hand_surface(vertices, faces, wrist, elbow) -> HandSurface | None:
     HV, HF = piece.vertices, piece.faces
     if len(HV) > HAND_MAX_VERTICES:
         HV, HF = _simplified(HV, HF)
-    graph = _edge_graph(HV, HF)
+    graph = edge_graph(HV, HF)
     # Seeds: the ring where the cut plane crossed the arm (the piece's boundary nearest the cut).
     seeds = _cut_ring(HV, HF, (HV - wrist) @ axis, piece.ring_reach)
     if len(seeds) == 0:
@@ -156,14 +158,6 @@ def _cut_ring(V, F, along, ring_reach) -> np.ndarray:
     uniq, count = np.unique(e, axis=0, return_counts=True)
     boundary = np.unique(uniq[count == 1])
     return boundary[along[boundary] <= ring_reach + 1e-9]
-
-
-def _edge_graph(V, F) -> sp.csr_matrix:
-    """Symmetric [N, N] sparse graph of the mesh edges (V [N, 3], F [G, 3]) weighted by their length."""
-    e = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
-    w = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1) + 1e-12
-    return sp.csr_matrix((np.concatenate([w, w]), (np.concatenate([e[:, 0], e[:, 1]]),
-                                                   np.concatenate([e[:, 1], e[:, 0]]))), shape=(len(V), len(V)))
 
 
 def _subset(V, F, keep) -> tuple[np.ndarray, np.ndarray]:

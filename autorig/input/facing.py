@@ -151,3 +151,14 @@ def cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """[N, 3] u x v of rows u, v [N, 3]: np.cross's operations, column by column (5x faster on 1M rows)."""
     return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
                      u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+
+
+def edge_graph(V: np.ndarray, F: np.ndarray):
+    """Symmetric [N, N] scipy.sparse CSR graph of the mesh edges (V [N, 3], F [G, 3]) weighted by their length
+    (plus 1e-12, so that coincident corners stay joined): for geodesic distances and connected pieces."""
+    import scipy.sparse as sp
+
+    e = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+    w = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1) + 1e-12
+    return sp.csr_matrix((np.concatenate([w, w]), (np.concatenate([e[:, 0], e[:, 1]]),
+                                                   np.concatenate([e[:, 1], e[:, 0]]))), shape=(len(V), len(V)))

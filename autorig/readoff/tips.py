@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..input.facing import edge_graph, face_cross
+
 CAP = 0.03    # the cap's depth, as a fraction of the height (the canonical frame is one unit tall)
 NEAR = 0.02   # the source's reach: vertices this much farther from the core than the nearest one
 PIECE = 0.1   # a piece whose box's diagonal is shorter than this (fraction of the height) holds no limb
@@ -34,67 +36,33 @@ class Surface:
     """A triangle surface's edge graph and reach from a core point, for reading tips off it."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, core: np.ndarray):
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import dijkstra
+        from scipy.sparse import bmat, csr_matrix
+        from scipy.sparse.csgraph import connected_components, dijkstra
+        from scipy.spatial import cKDTree
 
         self.vertices = np.asarray(vertices, float)
         faces = np.asarray(faces, np.int64)
         V = len(self.vertices)
-        e = np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-        e = np.unique(np.sort(e, axis=1), axis=0)
-        e = e[e[:, 0] != e[:, 1]]
-        length = np.linalg.norm(self.vertices[e[:, 0]] - self.vertices[e[:, 1]], axis=1)
-        self.edges = e
-        # Vertex V is the virtual source, joined to the surface nearest the core: in each piece large enough
-        # to hold a limb (a separate head or leg; not a nail, an eye or a tooth), to every vertex within NEAR
-        # of that piece's nearest one, by how much farther from the core than the body's nearest it lies.
-        from scipy.sparse.csgraph import connected_components
+        self.graph = edge_graph(self.vertices, faces)
+        count, piece = connected_components(self.graph, directed=False)
+        self.body = _body(self.vertices, faces, count, piece)
+        # The virtual source (node V) is joined to the surface nearest the core: in each piece of the body, to
+        # every vertex within NEAR of that piece's nearest one, by how much farther from the core than the
+        # body's nearest it lies.
         straight = np.linalg.norm(self.vertices - np.asarray(core, float), axis=1)
-        pieces = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(V, V))
-        _, piece = connected_components(pieces, directed=False)
-        used = np.zeros(V, bool)
-        used[faces.ravel()] = True
-        lo = np.full(piece.max() + 1, np.inf)
-        hi = np.full((piece.max() + 1, 3), -np.inf)
-        np.minimum.at(lo, piece[used], straight[used])
-        np.maximum.at(hi, piece[used], self.vertices[used])
-        low = np.full((piece.max() + 1, 3), np.inf)
-        np.minimum.at(low, piece[used], self.vertices[used])
-        large = np.linalg.norm(hi - low, axis=1) >= PIECE
-        if not large.any():
-            large[np.argmax(np.linalg.norm(hi - low, axis=1))] = True
-        self.body = used & large[piece]
-        nearest = float(straight[self.body].min())
-        near = np.flatnonzero(self.body & (straight <= lo[piece] + NEAR))
-        rows = np.concatenate([e[:, 0], e[:, 1], np.full(len(near), V)])
-        cols = np.concatenate([e[:, 1], e[:, 0], near])
-        data = np.concatenate([length, length, straight[near] - nearest])
-        graph = coo_matrix((np.maximum(data, 1e-12), (rows, cols)), shape=(V + 1, V + 1)).tocsr()
-        self.graph = graph[:V, :V]
-        self.reach = dijkstra(graph, indices=V)[:V]
-        self.reach[~np.isfinite(self.reach)] = -np.inf    # vertices of no face
-        # Each vertex's highest neighbour (itself when none is higher), then followed to the top.
-        a = np.concatenate([e[:, 0], e[:, 1]])
-        b = np.concatenate([e[:, 1], e[:, 0]])
-        order = np.lexsort((b, self.reach[b], a))    # by vertex, then its neighbours by rising reach
-        a, b = a[order], b[order]
-        last = np.flatnonzero(np.r_[a[1:] != a[:-1], True])    # each vertex's highest neighbour
-        up = np.arange(V)
-        climbs = self.reach[b[last]] > self.reach[a[last]]
-        up[a[last][climbs]] = b[last][climbs]
-        for _ in range(64):
-            nxt = up[up]
-            if np.array_equal(nxt, up):
-                break
-            up = nxt
-        self.top = up
-        areas = np.linalg.norm(np.cross(self.vertices[faces[:, 1]] - self.vertices[faces[:, 0]],
-                                        self.vertices[faces[:, 2]] - self.vertices[faces[:, 0]]), axis=1) / 6.0
-        self.area = np.bincount(faces.ravel(), weights=np.repeat(areas, 3), minlength=V)
-        from scipy.spatial import cKDTree
-        used = np.flatnonzero(self.body)
-        self._used = used
-        self._tree = cKDTree(self.vertices[used])
+        piece_nearest = np.full(count, np.inf)
+        np.minimum.at(piece_nearest, piece[self.body], straight[self.body])
+        near = np.flatnonzero(self.body & (straight <= piece_nearest[piece] + NEAR))
+        source = csr_matrix((np.maximum(straight[near] - straight[self.body].min(), 1e-12),
+                             (np.zeros(len(near), int), near)), shape=(1, V))
+        with_source = bmat([[self.graph, csr_matrix((V, 1))], [source, csr_matrix((1, 1))]], format="csr")
+        self.reach = dijkstra(with_source, indices=V)[:V]
+        self.reach[~np.isfinite(self.reach)] = -np.inf    # vertices of no face, pieces too small for a limb
+        self.top = _tops(self.graph, self.reach)
+        self.area = np.bincount(faces.ravel(), weights=np.repeat(np.linalg.norm(face_cross(self.vertices, faces),
+                                                                               axis=1) / 6.0, 3), minlength=V)
+        self._used = np.flatnonzero(self.body)
+        self._tree = cKDTree(self.vertices[self._used])
 
     def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray:
         """[3] the tip of the limb whose end lies nearest the point ``start`` [3]. midline: the tip of a part
@@ -125,6 +93,41 @@ class Surface:
         if weight.sum() <= 0:
             return self.vertices[end].copy()
         return weight @ self.vertices[mine] / weight.sum()
+
+
+def _body(vertices: np.ndarray, faces: np.ndarray, count: int, piece: np.ndarray) -> np.ndarray:
+    """[V] bool: the vertices of the pieces (``count`` of them, ``piece`` [V] each vertex's) large enough to
+    hold a limb (a box diagonal of at least PIECE: a separate head or leg, not a nail, an eye or a tooth); the
+    largest piece when none is."""
+    used = np.zeros(len(vertices), bool)
+    used[faces.ravel()] = True
+    lo = np.full((count, 3), np.inf)
+    hi = np.full((count, 3), -np.inf)
+    np.minimum.at(lo, piece[used], vertices[used])
+    np.maximum.at(hi, piece[used], vertices[used])
+    size = np.linalg.norm(hi - lo, axis=1)
+    large = size >= PIECE
+    if not large.any():
+        large[np.argmax(size)] = True
+    return used & large[piece]
+
+
+def _tops(graph, reach: np.ndarray) -> np.ndarray:
+    """[V] the local maximum of ``reach`` each vertex climbs to, always stepping to its highest neighbour."""
+    coo = graph.tocoo()
+    a, b = coo.row, coo.col
+    order = np.lexsort((b, reach[b], a))    # by vertex, then its neighbours by rising reach
+    a, b = a[order], b[order]
+    last = np.flatnonzero(np.r_[a[1:] != a[:-1], True])    # each vertex's highest neighbour
+    up = np.arange(len(reach))
+    climbs = reach[b[last]] > reach[a[last]]
+    up[a[last][climbs]] = b[last][climbs]
+    for _ in range(64):
+        nxt = up[up]
+        if np.array_equal(nxt, up):
+            break
+        up = nxt
+    return up
 
 
 def core_of(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
