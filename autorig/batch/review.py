@@ -43,7 +43,10 @@ def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRI
     Raises ``OutputError`` if ``path`` cannot be written.
     """
     from ..exchange import write_file_atomic
-    page = review_page(result, Path(os.path.abspath(path)).parent, low)
+    from ..show.viewer import install_three
+    page_dir = Path(os.path.abspath(path)).parent
+    page = review_page(result, page_dir, low)
+    install_three(page_dir)
     write_file_atomic(path, page.encode("utf-8", "backslashreplace"))  # a file name's undecodable bytes
 
 
@@ -61,7 +64,9 @@ def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> li
 
 
 def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD) -> str:
-    """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there)."""
+    """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there, and
+    ``write_review`` puts three.js there for the 3D view)."""
+    from ..show.viewer import THREE_FILE, VIEWER_STYLE, rig_views, viewer_markup
     from ..version import __version__
 
     assets = review_order(result.assets, low)
@@ -77,10 +82,13 @@ def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHO
     notes = [f"{earlier_failed} of the skipped assets failed in the run that rigged them"] if earlier_failed else []
     notes.append(f"doubtful: confidence below {low:g}, probably wrong (look at its pictures); parts below "
                  f"{WEAK_PART:g} are marked")
-    cards = "\n".join(_card(a, rank, result.output_dir, page_dir, low) for rank, a in enumerate(assets))
+    views, blobs = rig_views(assets, result.output_dir, result.input_dir, page_dir)
+    cards = "\n".join(_card(a, rank, result.output_dir, page_dir, low, views[rank] is not None)
+                      for rank, a in enumerate(assets))
     title = f"autorig batch: {result.input_dir.name or result.input_dir}"
     return _PAGE.format(
-        title=html.escape(title), summary=summary, cards=cards, total=len(assets), style=_STYLE, script=_SCRIPT,
+        title=html.escape(title), summary=summary, cards=cards, total=len(assets), style=_STYLE + VIEWER_STYLE,
+        script=_SCRIPT, viewer=viewer_markup(views, blobs, THREE_FILE),
         notes=html.escape("; ".join(notes)), version=html.escape(__version__),
         input=html.escape(str(result.input_dir)), output=html.escape(str(result.output_dir)))
 
@@ -89,7 +97,7 @@ def _is_low(asset: AssetResult, low: float) -> bool:
     return not asset.failed and asset.confidence is not None and asset.confidence < low
 
 
-def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: float) -> str:
+def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: float, viewable: bool) -> str:
     e = html.escape
     if asset.failed:
         kind, badge = "failed", "failed" + (" earlier" if asset.status == "skipped" else "")
@@ -109,6 +117,9 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
         name = f'<a href="{e(quote(Path(link).as_posix(), errors="surrogateescape"))}">{name}</a>'
     axes = f" · up {asset.up} · front {asset.front}" if asset.up else ""
     lines = [f'<p class="what">{e(asset.template + axes)}</p>']
+    if viewable:
+        from ..show.viewer import viewer_button
+        lines.append(viewer_button(rank))
     if asset.confidence is not None:
         parts = " ".join(f'<span class="part{" weak" if value < WEAK_PART else ""}">{e(part)} {value:.2f}</span>'
                          for part, value in asset.confidence_parts.items())
@@ -160,10 +171,11 @@ def _seconds(value: float) -> str:
     return f"{value:.1f} s" if value < 600 else f"{value / 60:.1f} min"
 
 
-# Every fetch is refused (default-src 'none'); only the inline style, the inline script and data: images run.
+# Nothing from the network (default-src 'none'): the inline style and scripts, data: images, and beside the page
+# only three.js's script and the rigs (read over http; blob: and data: for a rig's own embedded pictures).
 _PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
-<meta http-equiv="Content-Security-Policy" content="default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'">
+<meta http-equiv="Content-Security-Policy" content="default-src 'none'; img-src data: blob:; style-src 'unsafe-inline'; script-src 'unsafe-inline' 'self' file:; connect-src 'self' blob: data:">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>{title}</title><style>{style}</style></head>
 <body><header><h1>{title}</h1><p class="paths">{input} &rarr; {output} · autorig {version}</p>
@@ -175,7 +187,8 @@ _PAGE = """<!doctype html>
 </select></label> <span id="shown">{total} of {total}</span></div></header>
 <main id="cards">
 {cards}
-</main><script>{script}</script></body></html>
+</main><script>{script}</script>
+{viewer}</body></html>
 """
 
 _STYLE = """

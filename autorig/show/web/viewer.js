@@ -1,0 +1,365 @@
+// The review page's 3D view (autorig.show.viewer): one WebGL view, opened on any card's rig. It draws the mesh
+// with its skeleton over it, turns and zooms (OrbitControls), colours the mesh by the weights of a picked joint,
+// moves the rig (every bone bent in turn, computed here from the skeleton), and places markers: the reviewer picks
+// a name and clicks the surface; the points are given back in the input file's own coordinates.
+(() => {
+'use strict';
+const T = window.THREE;
+const views = JSON.parse(document.getElementById('views').textContent);
+const $ = id => document.getElementById(id);
+const dialog = $('viewer'), canvas = $('view-canvas'), status = $('view-status'), title = $('view-title');
+const jointMenu = $('view-joint'), markerMenu = $('view-marker'), moveButton = $('view-move');
+const list = $('view-markers'), saveButton = $('view-download'), clearButton = $('view-clear');
+const folderInput = $('view-folder'), folderBox = $('view-folder-box'), markerBox = $('view-marker-box');
+const MESH = 0x8fa8c8, BONE = 0xff7f00, MARKER = 0xff00ff;
+const BEND = 0.7, BEAT = 0.9;              // radians at most, seconds per bone
+const CLICK_PIXELS = 5;                    // a press that moves less than this is a click, not a turn
+const buttons = document.querySelectorAll('button.view3d');
+if (!T || !T.GLTFLoader) {
+  for (const b of buttons) { b.disabled = true; b.title = 'the three.js file beside this page is missing'; }
+  return;
+}
+let renderer = null, scene, camera, controls, model = null, skinned = [], bones = [], movers = [];
+let boneLines = null, jointPoints = null, markerGroup = null, markerRadius = 0.01;
+let view = null, frame = null, placed = {}, moving = false, start = 0, loop = 0, token = 0;
+const folder = new Map();                  // a chosen output folder's files, by path inside it
+const material = new T.MeshLambertMaterial({color: MESH, side: T.DoubleSide});
+
+function setup() {
+  renderer = new T.WebGLRenderer({canvas, antialias: true, preserveDrawingBuffer: true});
+  renderer.setPixelRatio(1);
+  scene = new T.Scene();
+  scene.background = new T.Color(0x1d2127);
+  scene.add(new T.HemisphereLight(0xffffff, 0x444450, 2.2));
+  camera = new T.PerspectiveCamera(35, 1, 0.01, 100);
+  const light = new T.DirectionalLight(0xffffff, 1.6);
+  light.position.set(0.3, 0.5, 1);
+  camera.add(light);
+  scene.add(camera);
+  controls = new T.OrbitControls(camera, canvas);
+  controls.addEventListener('change', draw);
+  let down = null;
+  canvas.addEventListener('pointerdown', e => { down = [e.clientX, e.clientY]; });
+  canvas.addEventListener('pointerup', e => {
+    if (down && Math.hypot(e.clientX - down[0], e.clientY - down[1]) < CLICK_PIXELS) place(e);
+    down = null;
+  });
+}
+
+function setState(state, text) {
+  dialog.dataset.state = state;
+  status.textContent = text || '';
+}
+
+function bytesOf(base64) {
+  const text = atob(base64), bytes = new Uint8Array(text.length);
+  for (let i = 0; i < text.length; i++) bytes[i] = text.charCodeAt(i);
+  return bytes.buffer;
+}
+
+// The rig's bytes: inlined in the page, else the file beside it (fetch: over http), else from a chosen folder.
+async function rigBytes(v) {
+  if (v.inline) return bytesOf(document.getElementById(v.inline).textContent.trim());
+  const file = folder.get(v.output);
+  if (file) return file.arrayBuffer();
+  try {
+    const answer = await fetch(v.href);
+    if (answer.ok) return answer.arrayBuffer();
+  } catch (e) { /* a page opened from disk may not read files beside it: ask for the folder */ }
+  folderBox.hidden = false;
+  throw new Error('this browser does not let a page opened from disk read ' + v.output +
+                  ': choose the output folder (the one holding it) below');
+}
+
+async function open(index) {
+  const mine = ++token;
+  view = views[index];
+  frame = view.frame || [[1, 0, 0], [0, 1, 0], [0, 0, 1]];
+  placed = Object.assign({}, view.given || {});
+  title.textContent = view.name;
+  if (!dialog.open) dialog.showModal();
+  if (!renderer) setup();
+  stop();
+  clearModel();
+  folderBox.hidden = true;
+  setState('loading', 'reading ' + view.output + ' ...');
+  try {
+    const bytes = await rigBytes(view);
+    const gltf = await new T.GLTFLoader().parseAsync(bytes, '');
+    if (mine !== token) return;
+    show(gltf.scene);
+    setState('ready', '');
+  } catch (e) {
+    if (mine === token) setState('error', String(e.message || e));
+  }
+}
+
+function clearModel() {
+  if (!model) return;
+  scene.remove(model, boneLines, jointPoints, markerGroup);
+  model.traverse(o => { if (o.geometry) o.geometry.dispose(); });
+  for (const o of [boneLines, jointPoints]) { o.geometry.dispose(); o.material.dispose(); }
+  model = null; skinned = []; bones = []; movers = [];
+}
+
+function show(root) {
+  // The file's coordinates, turned so that the rig's up is the view's up and its front faces the camera.
+  model = new T.Group();
+  const [x, y, z] = frame;
+  model.matrixAutoUpdate = false;
+  model.matrix.set(x[0], x[1], x[2], 0, y[0], y[1], y[2], 0, z[0], z[1], z[2], 0, 0, 0, 0, 1);
+  model.add(root);
+  scene.add(model);
+  root.traverse(o => {
+    if (o.isMesh) {
+      o.material = material;
+      o.frustumCulled = false;           // a moving skinned mesh leaves its rest bounds
+      if (o.isSkinnedMesh) skinned.push(o);
+    }
+  });
+  model.updateMatrixWorld(true);
+  bones = skinned.length ? skinned[0].skeleton.bones : [];
+  for (const b of bones) { b.userData.rest = b.quaternion.clone(); }
+  const box = new T.Box3();
+  for (const m of skinned) {
+    m.geometry.computeBoundingBox();
+    box.union(m.geometry.boundingBox.clone().applyMatrix4(m.matrixWorld));
+  }
+  for (const b of bones) box.expandByPoint(b.getWorldPosition(new T.Vector3()));
+  const size = box.getSize(new T.Vector3()), centre = box.getCenter(new T.Vector3());
+  const span = Math.max(size.x, size.y, size.z) || 1;
+  markerRadius = 0.012 * span;
+  camera.near = span / 100; camera.far = span * 100;
+  camera.position.set(centre.x, centre.y, centre.z + 2.4 * Math.max(size.y, size.x));
+  controls.target.copy(centre);
+  camera.updateProjectionMatrix();
+  controls.update();
+  movers = bendable();
+  boneLines = new T.LineSegments(new T.BufferGeometry(),
+    new T.LineBasicMaterial({color: BONE, depthTest: false, transparent: true}));
+  jointPoints = new T.Points(new T.BufferGeometry(),
+    new T.PointsMaterial({color: BONE, size: 7, sizeAttenuation: false, depthTest: false, transparent: true}));
+  boneLines.renderOrder = jointPoints.renderOrder = 2;
+  markerGroup = new T.Group();
+  markerGroup.renderOrder = 3;
+  scene.add(boneLines, jointPoints, markerGroup);
+  fillMenus();
+  resize();
+  pose(0);
+  drawMarkers();
+}
+
+// Bones that can bend: each joint with a child joint below a parent joint. The bend's axis is the rig's left
+// (forward and back, as knees, spines and tails bend), or its front for a bone along the left (arms in a T).
+function bendable() {
+  const left = new T.Vector3(1, 0, 0), front = new T.Vector3(0, 0, 1), result = [];
+  for (const b of bones) {
+    const child = b.children.find(c => c.isBone);
+    if (!child || !(b.parent && b.parent.isBone)) continue;
+    const from = b.getWorldPosition(new T.Vector3()), along = child.getWorldPosition(new T.Vector3()).sub(from);
+    if (along.lengthSq() === 0) continue;
+    along.normalize();
+    let axis = left.clone().addScaledVector(along, -left.dot(along));
+    if (axis.length() < 0.3) axis = front.clone().addScaledVector(along, -front.dot(along));
+    // The axis in the bone's own rest frame: its rotation is applied after the bone's rest rotation.
+    const world = b.getWorldQuaternion(new T.Quaternion());
+    result.push({bone: b, axis: axis.normalize().applyQuaternion(world.invert())});
+  }
+  return result;
+}
+
+function pose(seconds) {
+  for (const b of bones) b.quaternion.copy(b.userData.rest);
+  if (moving && movers.length) {
+    const beat = seconds / BEAT, m = movers[Math.floor(beat) % movers.length];
+    const bend = new T.Quaternion().setFromAxisAngle(m.axis, BEND * Math.sin(Math.PI * (beat % 1)));
+    m.bone.quaternion.multiply(bend);
+  }
+  model.updateMatrixWorld(true);
+  const lines = [], points = [];
+  const p = new T.Vector3(), q = new T.Vector3();
+  for (const b of bones) {
+    b.getWorldPosition(p);
+    points.push(p.x, p.y, p.z);
+    if (b.parent && b.parent.isBone) {
+      b.parent.getWorldPosition(q);
+      lines.push(q.x, q.y, q.z, p.x, p.y, p.z);
+    }
+  }
+  boneLines.geometry.setAttribute('position', new T.Float32BufferAttribute(lines, 3));
+  jointPoints.geometry.setAttribute('position', new T.Float32BufferAttribute(points, 3));
+  draw();
+}
+
+function draw() {
+  if (renderer && model) renderer.render(scene, camera);
+}
+
+function resize() {
+  const width = canvas.clientWidth || 800, height = canvas.clientHeight || 600;
+  renderer.setSize(width, height, false);
+  camera.aspect = width / height;
+  camera.updateProjectionMatrix();
+}
+
+function tick(now) {
+  if (!moving) return;
+  pose(Math.max(0, now - start) / 1000);
+  loop = requestAnimationFrame(tick);
+}
+
+function stop() {
+  moving = false;
+  cancelAnimationFrame(loop);
+  moveButton.textContent = 'move';
+}
+
+moveButton.addEventListener('click', () => {
+  if (!model) return;
+  if (moving) { stop(); pose(0); return; }
+  moving = true;
+  moveButton.textContent = 'stop';
+  start = performance.now();
+  loop = requestAnimationFrame(tick);
+});
+
+// The weights of one joint as colours: none grey-blue, then blue, green, yellow and red at full weight.
+function showWeights() {
+  const name = jointMenu.value;
+  for (const m of skinned) {
+    const g = m.geometry, index = m.skeleton.bones.findIndex(b => b.name === name);
+    if (!name || index < 0) { g.deleteAttribute('color'); continue; }
+    const joints = g.getAttribute('skinIndex'), weights = g.getAttribute('skinWeight');
+    const colours = new Float32Array(joints.count * 3), colour = new T.Color();
+    for (let v = 0; v < joints.count; v++) {
+      let w = 0;
+      for (let k = 0; k < 4; k++) if (joints.getComponent(v, k) === index) w += weights.getComponent(v, k);
+      if (w <= 0) colour.setHex(MESH); else colour.setHSL(0.66 * (1 - Math.min(w, 1)), 0.9, 0.5);
+      colours.set([colour.r, colour.g, colour.b], 3 * v);
+    }
+    g.setAttribute('color', new T.BufferAttribute(colours, 3));
+  }
+  material.vertexColors = Boolean(name);
+  material.color.setHex(name ? 0xffffff : MESH);
+  material.needsUpdate = true;
+  draw();
+}
+jointMenu.addEventListener('change', showWeights);
+
+function fillMenus() {
+  const names = bones.map(b => b.name);
+  jointMenu.replaceChildren(new Option('none (plain mesh)', ''), ...names.map(n => new Option(n, n)));
+  material.vertexColors = false;
+  material.color.setHex(MESH);
+  material.needsUpdate = true;
+  markerBox.hidden = !view.template;
+  const set = view.markers || [];
+  const others = names.filter(n => !set.includes(n) && !n.endsWith('_end'));
+  const groups = [];
+  if (set.length) {
+    const g = document.createElement('optgroup');
+    g.label = 'the ' + view.template + ' markers';
+    g.append(...set.map(n => new Option(n, n)));
+    groups.push(g);
+  }
+  const g = document.createElement('optgroup');
+  g.label = set.length ? 'other joints' : 'joints';
+  g.append(...others.map(n => new Option(n, n)));
+  groups.push(g);
+  markerMenu.replaceChildren(new Option('(pick a marker, then click the surface)', ''), ...groups);
+  nextMarker();
+}
+
+function nextMarker() {
+  const free = Array.from(markerMenu.options).find(o => o.value && !(o.value in placed) &&
+                                                       o.parentElement.label.startsWith('the '));
+  markerMenu.value = free ? free.value : '';
+}
+
+// A click on the surface: where the ray meets the mesh (at rest), in the view's frame, then in the file's.
+function place(event) {
+  const name = markerMenu.value;
+  if (!model || !name || markerBox.hidden) return;
+  if (moving) { stop(); pose(0); }
+  const box = canvas.getBoundingClientRect();
+  const ndc = new T.Vector2(((event.clientX - box.left) / box.width) * 2 - 1,
+                            -((event.clientY - box.top) / box.height) * 2 + 1);
+  const ray = new T.Raycaster();
+  ray.setFromCamera(ndc, camera);
+  const hit = ray.intersectObjects(skinned, false)[0];
+  if (!hit) { status.textContent = 'no surface under the click: click on the mesh'; return; }
+  placed[name] = toInput(hit.point);
+  status.textContent = name + ' placed';
+  drawMarkers();
+  nextMarker();
+}
+
+// view = frame . input (frame's rows: the file's directions of the view's x, y, z), so input = frame^T . view.
+function toInput(p) {
+  const [x, y, z] = frame;
+  return [0, 1, 2].map(i => x[i] * p.x + y[i] * p.y + z[i] * p.z);
+}
+
+function toView(q) {
+  return new T.Vector3(...frame.map(r => r[0] * q[0] + r[1] * q[1] + r[2] * q[2]));
+}
+
+function drawMarkers() {
+  if (!markerGroup) return;
+  for (const m of markerGroup.children) m.geometry.dispose();
+  markerGroup.clear();
+  const sphere = new T.SphereGeometry(markerRadius, 12, 8);
+  const look = new T.MeshBasicMaterial({color: MARKER, depthTest: false, transparent: true});
+  list.replaceChildren();
+  for (const [name, point] of Object.entries(placed)) {
+    const dot = new T.Mesh(sphere, look);
+    dot.position.copy(toView(point));
+    dot.renderOrder = 3;
+    markerGroup.add(dot);
+    const item = document.createElement('li'), remove = document.createElement('button');
+    item.textContent = name + ' ' + point.map(c => c.toPrecision(5)).join(', ') + ' ';
+    remove.textContent = 'remove';
+    remove.type = 'button';
+    remove.addEventListener('click', () => { delete placed[name]; drawMarkers(); nextMarker(); });
+    item.append(remove);
+    list.append(item);
+  }
+  saveButton.disabled = !Object.keys(placed).length;
+  saveButton.textContent = 'download ' + view.markers_file;
+  draw();
+}
+
+function markersText() {
+  const order = (view.markers || []).filter(n => n in placed);
+  const names = order.concat(Object.keys(placed).filter(n => !order.includes(n)));
+  const out = {};
+  for (const n of names) out[n] = placed[n].map(c => Number(c.toPrecision(9)));
+  return JSON.stringify(out, null, 1) + '\n';
+}
+
+saveButton.addEventListener('click', () => {
+  const link = document.createElement('a');
+  link.href = URL.createObjectURL(new Blob([markersText()], {type: 'application/json'}));
+  link.download = view.markers_file;
+  document.body.append(link);
+  link.click();
+  link.remove();
+  setTimeout(() => URL.revokeObjectURL(link.href), 60000);
+  status.textContent = 'save ' + view.markers_file + ' beside ' + view.name + ', then run the batch again';
+});
+clearButton.addEventListener('click', () => { placed = {}; drawMarkers(); nextMarker(); });
+
+folderInput.addEventListener('change', () => {
+  for (const file of folderInput.files) {
+    // webkitRelativePath starts with the chosen folder's own name.
+    folder.set(file.webkitRelativePath.split('/').slice(1).join('/'), file);
+  }
+  if (view) open(views.indexOf(view));
+});
+
+$('view-close').addEventListener('click', () => dialog.close());
+dialog.addEventListener('close', stop);
+window.addEventListener('resize', () => { if (renderer && dialog.open) { resize(); draw(); } });
+for (const b of buttons) b.addEventListener('click', () => open(Number(b.dataset.view)));
+window.autorigViewer = {views, markersText, toInput: p => toInput(new T.Vector3(...p)), get placed() { return placed; }};
+})();
