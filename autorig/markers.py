@@ -1,0 +1,224 @@
+"""Markers: where the user says some joints are, to fix a rig the embedding got wrong (``autorig MESH --markers FILE``).
+
+A markers file is a JSON object of names to points ``[x, y, z]`` in the input mesh's own coordinates and units
+(before any axis conversion)::
+
+    {"chin": [0.0, 1.52, 0.09], "left_wrist": [0.71, 1.02, -0.02], "groin": [0.0, 0.86, 0.01]}
+
+Each template documents a small marker set (``marker_names``), the points a person finds on a character at a
+glance; every joint name of the template is accepted too (``accepted_names``):
+
+- biped, humanoid: chin, left and right wrist, elbow and knee, and the groin;
+- quadruped, horse: the four paws, the head, the tail base and the withers;
+- centaur: the human half's chin, wrists and elbows, the four paws and the tail base.
+
+A marker holds one joint (``MARKERS``): a joint's own name, a wrist, elbow, knee, paw, the head or the tail base
+puts that joint at the point. Three markers are points on the surface, and hold only what they say about the
+joint inside (in the canonical frame: x the character's left, y up, z its front; offsets in heights):
+
+- chin: the head joint (the skull's pivot) at the chin's height plus ``offset`` and on its mid-plane, as deep
+  as the rig puts it;
+- groin: the hips at the crotch's height plus ``offset``, its side-to-side and front-to-back place;
+- withers: the neck's base (``neck``), over the top of the shoulders, front-to-back plus ``offset``; its
+  height is the rig's.
+
+The offsets were measured on the artists' rigs of the corpus and shared data (``benchmarks/markers.py``
+``--measure`` prints them).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+SIDE_TOLERANCE = 0.02   # heights: a pair's left marker this far on the right is a contradiction, and a marker
+OUTSIDE_TOLERANCE = 0.02  # this far outside the surface is outside it
+
+
+@dataclass(frozen=True)
+class Marker:
+    """``joint`` (a template joint name) held at a marker; ``held``: the canonical axes it fixes (0 = x the
+    character's left, 1 = y up, 2 = z its front); ``offset`` [3]: the joint minus the marker on those axes, in
+    heights (the figure one unit tall)."""
+    joint: str
+    held: tuple[int, ...] = (0, 1, 2)
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+# The named markers. A wrist, elbow, knee or paw is that joint; the surface landmarks hold what they tell.
+CHIN = Marker("head", (0, 1), (0.0, 0.035, 0.0))
+GROIN = Marker("hips", (0, 1, 2), (0.0, 0.06, 0.0))
+WITHERS = Marker("neck", (0, 2), (0.0, 0.0, 0.05))
+
+_BIPED = ("chin", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_knee", "right_knee", "groin")
+_FOUR_LEGS = ("front_left_paw", "front_right_paw", "back_left_paw", "back_right_paw", "head", "tail_base",
+              "withers")
+_CENTAUR = ("chin", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "front_left_paw",
+            "front_right_paw", "back_left_paw", "back_right_paw", "tail_base")
+_LANDMARKS = {"chin": CHIN, "groin": GROIN, "withers": WITHERS}
+
+
+def _names_of(template) -> tuple[str, ...]:
+    if isinstance(template, str):
+        from .template import load_template
+        template = load_template(template)
+    return tuple(template.names)
+
+
+def marker_names(template) -> list[str]:
+    """The template's documented marker set (a template name, path or ``Template``): the biped's or humanoid's
+    for a template with wrists and knees, the four-legged set for one with four paws, the centaur's for one
+    with both; a template with none of these (``--skeleton``-like custom ones) has only its joint names."""
+    names = set(_names_of(template))
+    wanted = (_CENTAUR if {"left_wrist", "front_left_paw"} <= names else
+              _BIPED if {"left_wrist", "left_knee"} <= names else
+              _FOUR_LEGS if "front_left_paw" in names else ())
+    return [m for m in wanted if _LANDMARKS.get(m, Marker(m)).joint in names]
+
+
+def accepted_names(template) -> list[str]:
+    """Every name a markers file may use for ``template``: its marker set, then its joint names."""
+    own = marker_names(template)
+    return own + [n for n in _names_of(template) if n not in own]
+
+
+def marker_of(name: str) -> Marker:
+    """The ``Marker`` a name stands for: a landmark's, or its own joint's, held whole."""
+    return _LANDMARKS.get(name, Marker(name))
+
+
+def read_markers(path, template) -> dict[str, np.ndarray]:
+    """{name: point [3]} of a markers file (``InputError``, one line, on anything wrong with it): a JSON object
+    of names the template accepts (``accepted_names``) to three finite numbers. The points are the input's own
+    coordinates; whether they lie in the mesh and agree on left and right is checked once the mesh is read
+    (``check_markers``)."""
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise InputError(f"markers file not found: {path}") from None
+    except IsADirectoryError:
+        raise InputError(f"markers file is a folder: {path}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"markers file {path.name}: not JSON (not UTF-8 text)") from None
+    except OSError as error:
+        raise InputError(f"markers file {path.name}: cannot read it ({error.strerror or error})") from None
+    try:
+        data = json.loads(text)
+    except (ValueError, RecursionError) as error:
+        raise InputError(f"markers file {path.name}: not JSON ({_short(error)})") from None
+    return markers_from(data, template, path.name)
+
+
+def markers_from(data, template, source: str = "markers") -> dict[str, np.ndarray]:
+    """The checks of ``read_markers`` on an already parsed object (``RigOptions(markers={...})``)."""
+    if not isinstance(data, dict):
+        raise InputError(f"{source}: must be a JSON object of marker names to [x, y, z], "
+                         f"not {type(data).__name__ if not isinstance(data, list) else 'a list'}")
+    if not data:
+        raise InputError(f"{source}: no markers in it")
+    accepted = accepted_names(template)
+    out = {}
+    for name, value in data.items():
+        if name not in accepted:
+            shown = ", ".join(accepted)
+            raise InputError(f"{source}: unknown marker {_quoted(name)}; the template accepts: {shown}")
+        point = _point(value)
+        if point is None:
+            raise InputError(f"{source}: marker {name!r} must be [x, y, z], three finite numbers, "
+                             f"not {_shown(value)}")
+        out[name] = point
+    joints = {}
+    for name in out:
+        joint = marker_of(name).joint
+        if joint in joints:
+            raise InputError(f"{source}: markers {joints[joint]!r} and {name!r} both place the joint {joint!r}")
+        joints[joint] = name
+    return out
+
+
+def check_markers(markers: dict[str, np.ndarray], vertices: np.ndarray, faces: np.ndarray, left: np.ndarray,
+                  height: float, source: str = "markers") -> None:
+    """``InputError`` when a marker lies outside the mesh (more than ``OUTSIDE_TOLERANCE`` of its ``height``
+    from its surface) or the markers put left and right the wrong way round for ``left`` (the character's left
+    as an input-coordinate direction, [3]): any pair of left and right markers more than ``SIDE_TOLERANCE``
+    on the wrong side. Markers above, below or in front of one another are never a contradiction."""
+    names = list(markers)
+    points = np.array([markers[n] for n in names], dtype=np.float64)
+    outside = outside_distances(points, vertices, faces) > OUTSIDE_TOLERANCE * height
+    if outside.any():
+        name = names[int(np.argmax(outside))]
+        raise InputError(f"{source}: marker {name!r} at {_shown(markers[name].tolist())} lies outside the mesh "
+                         f"(farther than {OUTSIDE_TOLERANCE:.0%} of its height from the surface)")
+    left = np.asarray(left, dtype=np.float64)
+    for name in names:
+        other = mirror_name(name)
+        if other is None or other not in markers or "left" not in name:
+            continue
+        side = float(np.dot(markers[name] - markers[other], left))
+        if side < -SIDE_TOLERANCE * height:
+            raise InputError(f"{source}: markers {name!r} and {other!r} are swapped: {name!r} lies on the "
+                             f"character's right for these axes (check the markers, or --up/--front)")
+
+
+def sides_agree(markers: dict[str, np.ndarray], left: np.ndarray, height: float) -> int:
+    """How the markers' left-right pairs sit for ``left`` (an input-coordinate direction): +1 when every pair
+    more than ``SIDE_TOLERANCE`` apart has its left marker on that side, -1 when every one has it on the other,
+    0 when there are no such pairs or they disagree with one another."""
+    signs = set()
+    for name in markers:
+        other = mirror_name(name)
+        if other is None or other not in markers or "left" not in name:
+            continue
+        side = float(np.dot(markers[name] - markers[other], left))
+        if abs(side) > SIDE_TOLERANCE * height:
+            signs.add(1 if side > 0 else -1)
+    return signs.pop() if len(signs) == 1 else 0
+
+
+def outside_distances(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """[M] how far each point lies outside the surface (0 inside it, by the generalized winding number)."""
+    import igl
+
+    V = np.ascontiguousarray(vertices, dtype=np.float64)
+    F = np.ascontiguousarray(faces, dtype=np.int64)
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    inside = np.abs(igl.fast_winding_number(V, F, P)) >= 0.5
+    squared = igl.point_mesh_squared_distance(P, V, F)[0]
+    return np.where(inside, 0.0, np.sqrt(np.maximum(squared, 0.0)))
+
+
+def mirror_name(name: str) -> str | None:
+    """The other side's name of a left or right marker or joint (left_wrist <-> right_wrist), else None."""
+    for a, b in (("left", "right"), ("right", "left")):
+        if f"{a}_" in name:
+            return name.replace(f"{a}_", f"{b}_", 1)
+    return None
+
+
+def _point(value) -> np.ndarray | None:
+    if not isinstance(value, list) or len(value) != 3:
+        return None
+    if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
+        return None
+    point = np.array([float(v) for v in value], dtype=np.float64)
+    return point if all(math.isfinite(v) for v in point) else None
+
+
+def _shown(value) -> str:
+    text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _quoted(name: str) -> str:
+    from .errors import printable
+    return repr(printable(name[:60] + ("..." if len(name) > 60 else "")))
+
+
+def _short(error: Exception) -> str:
+    return str(error).split("\n")[0][:100]
