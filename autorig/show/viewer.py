@@ -85,29 +85,43 @@ def given_markers(path: Path) -> dict[str, list[float]]:
 
 
 def _marker_set(template: str) -> list[str] | None:
-    """The marker names the page offers first for a rig of ``template``; None when markers do not apply (the
-    template-free skeleton, the user's own skeleton)."""
+    """The template's marker set (``autorig.markers.marker_names``), which the page offers first, its joint
+    names after it; [] for a template it cannot load here; None when markers do not apply (the template-free
+    skeleton, the user's own skeleton)."""
+    from ..errors import AutorigError
+    from ..markers import marker_names
     if template == "auto" or template.startswith("skeleton "):
         return None
-    return []
+    try:
+        return marker_names(template)
+    except (AutorigError, OSError):
+        return []
 
 
-def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget: int = INLINE_BUDGET
+def _on_the_surface(names: list[str]) -> list[str]:
+    """The markers among ``names`` that are points on the surface (the chin, the groin, the withers: they hold
+    only part of a joint's place); the others are joints, placed in the middle of the limb under the click."""
+    from ..markers import marker_of
+    return [name for name in names if marker_of(name).joint != name]
+
+
+def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget: int | None = None
               ) -> tuple[list[dict | None], dict[str, str]]:
     """For each of ``assets`` (``AssetResult``, in the page's order): the 3D view's data, or None for an asset
     without a rig it can show; and {element id: base64} of the rigs inlined, in that order while their total
-    stays within ``budget`` bytes.
+    stays within ``budget`` bytes (default ``INLINE_BUDGET``).
 
     A view's data: name (the asset's input path), output (the rig's path in the output folder), href (the rig
     relative to the page), inline (the id of its inlined bytes, or None), frame (3 rows: the input's directions
     of the view's x, y, z), template (None where markers do not apply), markers (the template's marker set),
+    surface (those of them placed on the surface; the others, joints, in the middle of the limb),
     markers_file (``<asset stem>.markers.json``), beside (the asset's folder in the input folder) and given
     (the markers already in that file beside the asset, in input coordinates).
     """
     from urllib.parse import quote
     views: list[dict | None] = []
     blobs: dict[str, str] = {}
-    left = budget
+    left = INLINE_BUDGET if budget is None else budget
     for asset in assets:
         rig = Path(output_dir) / asset.output
         if asset.failed or rig.suffix.lower() not in VIEWABLE or not rig.is_file():
@@ -127,7 +141,8 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
         views.append({
             "name": asset.input, "output": asset.output, "href": quote(href, errors="surrogateescape"),
             "inline": inline, "frame": frame, "template": None if markers is None else asset.template,
-            "markers": markers or [], "markers_file": markers_file_name(asset.input),
+            "markers": markers or [], "surface": _on_the_surface(markers or []),
+            "markers_file": markers_file_name(asset.input),
             "beside": Path(asset.input).parent.as_posix(),
             "given": given_markers(source.parent / markers_file_name(asset.input)) if markers is not None else {}})
     return views, blobs

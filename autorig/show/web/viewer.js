@@ -60,7 +60,8 @@ function bytesOf(base64) {
 // The rig's bytes: inlined in the page, else the file beside it (fetch: over http), else from a chosen folder.
 async function rigBytes(v) {
   if (v.inline) return bytesOf(document.getElementById(v.inline).textContent.trim());
-  const file = folder.get(v.output);
+  // The folder chosen may be the output folder or one above it.
+  const file = folder.get(v.output) || Array.from(folder).find(([path]) => path.endsWith('/' + v.output))?.[1];
   if (file) return file.arrayBuffer();
   try {
     const answer = await fetch(v.href);
@@ -286,10 +287,15 @@ function place(event) {
                             -((event.clientY - box.top) / box.height) * 2 + 1);
   const ray = new T.Raycaster();
   ray.setFromCamera(ndc, camera);
-  const hit = ray.intersectObjects(skinned, false)[0];
-  if (!hit) { status.textContent = 'no surface under the click: click on the mesh'; return; }
-  placed[name] = toInput(hit.point);
-  status.textContent = name + ' placed';
+  const hits = ray.intersectObjects(skinned, false);
+  if (!hits.length) { status.textContent = 'no surface under the click: click on the mesh'; return; }
+  // A joint (a wrist, a knee, a paw) lies inside the limb: halfway between where the ray enters it and where
+  // it leaves it. A landmark (the chin, the groin, the withers) is the point on the surface.
+  const exit = hits.find(h => h.distance > hits[0].distance + 1e-3 * markerRadius);
+  const inside = !(view.surface || []).includes(name) && exit !== undefined;
+  const point = inside ? hits[0].point.clone().lerp(exit.point, 0.5) : hits[0].point;
+  placed[name] = toInput(point);
+  status.textContent = name + ' placed ' + (inside ? 'inside the limb under the click' : 'on the surface');
   drawMarkers();
   nextMarker();
 }
@@ -332,9 +338,10 @@ function drawMarkers() {
 function markersText() {
   const order = (view.markers || []).filter(n => n in placed);
   const names = order.concat(Object.keys(placed).filter(n => !order.includes(n)));
-  const out = {};
-  for (const n of names) out[n] = placed[n].map(c => Number(c.toPrecision(9)));
-  return JSON.stringify(out, null, 1) + '\n';
+  // One marker a line: {"chin": [x, y, z], ...}, 9 significant digits (the mesh's float32 holds fewer).
+  const lines = names.map(n => ' ' + JSON.stringify(n) + ': ' +
+                          JSON.stringify(placed[n].map(c => Number(c.toPrecision(9)))).replaceAll(',', ', '));
+  return '{\n' + lines.join(',\n') + '\n}\n';
 }
 
 saveButton.addEventListener('click', () => {
@@ -361,5 +368,13 @@ $('view-close').addEventListener('click', () => dialog.close());
 dialog.addEventListener('close', stop);
 window.addEventListener('resize', () => { if (renderer && dialog.open) { resize(); draw(); } });
 for (const b of buttons) b.addEventListener('click', () => open(Number(b.dataset.view)));
-window.autorigViewer = {views, markersText, toInput: p => toInput(new T.Vector3(...p)), get placed() { return placed; }};
+// For scripts that drive the page (the tests do): the open rig's markers file, a view point in the input's
+// coordinates, and where an input point is drawn (client pixels).
+window.autorigViewer = {
+  views, markersText, toInput: p => toInput(new T.Vector3(...p)),
+  screenOf(q) {
+    const p = toView(q).project(camera), box = canvas.getBoundingClientRect();
+    return [box.left + (p.x + 1) / 2 * box.width, box.top + (1 - p.y) / 2 * box.height];
+  },
+};
 })();
