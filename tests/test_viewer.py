@@ -111,6 +111,18 @@ def test_three_is_beside_the_page_once_and_as_pinned(batch, tmp_path):
                                                  for n in ("hero.rigged.glb", "zup.rigged.glb")]
 
 
+def test_markers_beside_an_asset_are_shown_only_from_inside_the_input_folder(batch, tmp_path):
+    assets, out, page = batch
+    given = tmp_path / "in"
+    given.mkdir()
+    (given / "hero.markers.json").write_text('{"chin": [0, 1.5, 0.1], "groin": [0, "x", 1], "left_knee": [1, 2]}')
+    (tmp_path / "secret.json").write_text('{"chin": [7, 7, 7]}')
+    (given / "zup.markers.json").symlink_to(tmp_path / "secret.json")
+    views, _ = viewer.rig_views(viewer_assets(out), out, given, tmp_path)
+    shown = {v["name"]: v["given"] for v in views}
+    assert shown == {"hero.obj": {"chin": [0.0, 1.5, 0.1]}, "zup.obj": {}}
+
+
 def viewer_assets(out: Path):
     from autorig.batch.result import AssetResult
     report = json.loads((out / "report.json").read_text())["assets"]

@@ -68,14 +68,15 @@ def markers_file_name(asset_input: str) -> str:
     return f"{Path(asset_input).stem}.markers.json"
 
 
-def given_markers(path: Path) -> dict[str, list[float]]:
-    """The markers in ``path`` (a JSON object of names to [x, y, z]) that the page can show, {} when the file is
-    missing or unreadable (the batch itself reports a bad markers file)."""
+def given_markers(folder: Path, name: str, root: Path) -> dict[str, list[float]]:
+    """The markers in the file ``name`` in ``folder`` (a JSON object of names to [x, y, z]) that the page can
+    show; {} when it is missing, unreadable, not a regular file, larger than ``MAX_MARKERS_BYTES`` or (through
+    a symlink) outside ``root``, the input folder. The batch itself reports a bad markers file."""
+    from ..input.confine import Refused, inside
+    from ..input.limits import read_regular
     try:
-        if not path.is_file() or path.stat().st_size > MAX_MARKERS_BYTES:
-            return {}
-        document = json.loads(path.read_bytes())
-    except (OSError, ValueError):
+        document = json.loads(read_regular(inside(folder, name, root), MAX_MARKERS_BYTES))
+    except (OSError, ValueError, Refused, RecursionError):
         return {}
     if not isinstance(document, dict):
         return {}
@@ -144,7 +145,8 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
             "markers": markers or [], "surface": _on_the_surface(markers or []),
             "markers_file": markers_file_name(asset.input),
             "beside": Path(asset.input).parent.as_posix(),
-            "given": given_markers(source.parent / markers_file_name(asset.input)) if markers is not None else {}})
+            "given": given_markers(source.parent, markers_file_name(asset.input), Path(input_dir))
+            if markers is not None else {}})
     return views, blobs
 
 
