@@ -3,13 +3,14 @@
     from autorig.batch.review import write_review
     write_review(rig_folder("assets/", "rigged/", html=None), "review.html")   # rig_folder(html=...) does this
 
-The page is one self-contained HTML file: its style, script and thumbnails (WebP, a few kilobytes per view,
-as data: URIs) are inside it, and its Content-Security-Policy forbids any fetch, so it opens the same from
-disk, from a CI artifact or offline. Only the links to the rigs point outside it (relative to the page).
+The page is one HTML file: its style, script and thumbnails (WebP, a few kilobytes per view, as data: URIs) are
+inside it, and its Content-Security-Policy allows nothing from the network, so it opens the same from disk, from
+a CI artifact or offline. Outside it are only the links to the rigs (relative to the page) and, for each rig's
+3D view (``autorig.show.viewer``), three.js beside the page and the rigs not inlined into it.
 
 Contents: a summary (assets by status, rigs below the low-confidence threshold, the batch's time); then one
 card per asset with the front and side thumbnails the workers drew (``AssetResult.thumbnails``), the name
-linked to the output, the template and axes, the confidence with its parts (weak parts marked), the stage
+linked to the output, the template and axes, a button opening the rig in the 3D view, the confidence with its parts (weak parts marked), the stage
 times (for a skipped asset, those of the run that rigged it) and a failure's one-line error. Cards come in
 review order: assets without a rig, then rigs below ``STRICT_THRESHOLD`` (lowest first), then the rest as
 the batch lists them. A filter box keeps the cards holding every word typed (name, template, status, error;

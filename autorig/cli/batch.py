@@ -48,7 +48,9 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
 @click.option("--html", metavar="PATH",
               help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
-                   "ones first (one offline file; needs Pillow: pip install 'autorig[preview]'). Also: "
+                   "ones first, and a 3D view of each (turn it, see it move, its weights, place markers and download "
+                   "STEM.markers.json to put beside the asset); offline, three.js beside it. Needs Pillow: pip "
+                   "install 'autorig[preview]'. Also: "
                    "html = \"PATH\" in INPUT_DIR's "
                    "autorig.toml, relative to OUTPUT_DIR.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
