@@ -181,6 +181,137 @@ def sides_agree(markers: dict[str, np.ndarray], left: np.ndarray, height: float)
     return signs.pop() if len(signs) == 1 else 0
 
 
+@dataclass(frozen=True)
+class Held:
+    """Joints held at markers, in a rig's canonical frame: ``index`` [M] template joint indices, ``mask`` [M, 3]
+    the axes each holds, ``target`` [M, 3] where (meaningful where ``mask``), ``names`` [M] the markers';
+    ``follow`` [J, M] how much each joint follows each held joint's move (``held_joints``)."""
+    index: np.ndarray
+    mask: np.ndarray
+    target: np.ndarray
+    names: tuple[str, ...]
+    follow: np.ndarray
+
+    def apply(self, joints: np.ndarray) -> np.ndarray:
+        """A copy of ``joints`` [J, 3] with the held joints' held coordinates at their markers, and the others
+        moved by their share of those moves (``follow``)."""
+        out = np.array(joints, dtype=np.float64)
+        moves = np.where(self.mask, self.target - out[self.index], 0.0)
+        out += self.follow @ moves
+        out[self.index] = np.where(self.mask, self.target, out[self.index])
+        return out
+
+    def distances(self, joints: np.ndarray) -> np.ndarray:
+        """[M] how far each held joint of ``joints`` [J, 3] lies from its marker, on the axes it holds."""
+        return np.linalg.norm(np.where(self.mask, np.asarray(joints)[self.index] - self.target, 0.0), axis=1)
+
+    def bounds(self, count: int) -> list[tuple[float | None, float | None]]:
+        """L-BFGS-B bounds of ``count`` joints' flattened coordinates: the held ones fixed at their markers."""
+        out: list[tuple[float | None, float | None]] = [(None, None)] * (3 * count)
+        for j, mask, target in zip(self.index, self.mask, self.target):
+            for axis in np.flatnonzero(mask):
+                out[3 * int(j) + int(axis)] = (float(target[axis]), float(target[axis]))
+        return out
+
+    def to_spheres(self, centers: np.ndarray) -> np.ndarray:
+        """[M, S] distance of each held joint's marker from each sphere centre [S, 3], on the axes it holds."""
+        diff = centers[None, :, :] - self.target[:, None, :]
+        return np.linalg.norm(np.where(self.mask[:, None, :], diff, 0.0), axis=2)
+
+
+def held_joints(markers: dict[str, np.ndarray], template, to_canonical) -> Held:
+    """The ``Held`` joints of ``markers`` (input coordinates) for ``template``, with ``to_canonical`` mapping
+    input points [N, 3] into the rig's canonical frame (``PreparedMesh.to_canonical``)."""
+    names = list(markers)
+    points = to_canonical(np.array([markers[n] for n in names], dtype=np.float64).reshape(-1, 3))
+    index, mask, target = [], [], []
+    for name, point in zip(names, points):
+        marker = marker_of(name)
+        held = np.zeros(3, dtype=bool)
+        held[list(marker.held)] = True
+        index.append(list(template.names).index(marker.joint))
+        mask.append(held)
+        target.append(point + np.asarray(marker.offset) * held)
+    index = np.array(index, dtype=np.int64)
+    return Held(index, np.array(mask), np.array(target), tuple(names), _follow(template, index))
+
+
+FOLLOW = 0.1   # heights along the skeleton over which a joint's share of a held joint's move falls by e
+
+
+def _follow(template, index: np.ndarray) -> np.ndarray:
+    """[J, M] each joint's share of each held joint's move: exp(-d / FOLLOW) for d its distance from it along
+    the template's bones, shared between the held joints in proportion (0 for the held joints themselves), so
+    that a marked wrist takes its hand along and a marked hips its spine, and a joint far from every marker
+    stays where the rig put it."""
+    J = len(template.names)
+    parents = np.asarray(template.parents)
+    neighbours = [[] for _ in range(J)]
+    for j in range(J):
+        if parents[j] >= 0:
+            length = float(np.linalg.norm(template.positions[j] - template.positions[parents[j]]))
+            neighbours[j].append((int(parents[j]), length))
+            neighbours[int(parents[j])].append((j, length))
+    distance = np.full((J, len(index)), np.inf)
+    for m, start in enumerate(index):
+        distance[start, m] = 0.0
+        todo = [int(start)]
+        while todo:
+            j = todo.pop()
+            for k, length in neighbours[j]:
+                if distance[j, m] + length < distance[k, m]:
+                    distance[k, m] = distance[j, m] + length
+                    todo.append(k)
+    weight = np.exp(-distance / FOLLOW)
+    share = weight * (weight.max(axis=1, keepdims=True) / np.maximum(weight.sum(axis=1, keepdims=True), 1e-300))
+    share[index] = 0.0
+    return share
+
+
+FRAME_MARGIN = 0.5   # the markers choose the axes left "auto" when the best frame fits at most half as badly
+
+
+def marker_frame(markers: dict[str, np.ndarray], template, vertices: np.ndarray, up: str = "auto",
+                 front: str = "auto") -> tuple[str, str]:
+    """(up, front) with the axes left "auto" chosen by the markers when they tell: of the 24 frames (signed axes)
+    that keep the given ones, those in which the markers' layout (centred, in heights of the mesh along its
+    up) is nearest the template's joints' (each on the axes its marker holds), within twice the best fit; the
+    up they all share, and the front they all share, else the axes as given. Chin over knees tells up, a head before a tail base tells
+    front, and left-right pairs tell the front from the back."""
+    from .input.mesh import frame_rotation
+
+    if (up != "auto" and front != "auto") or len(markers) < 2:
+        return up, front
+    names = list(markers)
+    points = np.array([markers[n] for n in names], dtype=np.float64)
+    wanted = np.array([template.positions[list(template.names).index(marker_of(n).joint)]
+                       - np.asarray(marker_of(n).offset) for n in names])
+    mask = np.zeros((len(names), 3), dtype=bool)
+    for i, n in enumerate(names):
+        mask[i, list(marker_of(n).held)] = True
+    extent = np.ptp(vertices, axis=0)
+    fits = []
+    for u in ("x", "-x", "y", "-y", "z", "-z"):
+        for f in ("x", "-x", "y", "-y", "z", "-z"):
+            if u[-1] == f[-1] or (up != "auto" and u != up) or (front != "auto" and f != front):
+                continue
+            rotation = frame_rotation(u, f)
+            height = float(extent["xyz".index(u[-1])]) or 1.0
+            canonical = points @ rotation.T / height
+            cost = 0.0
+            for axis in range(3):
+                rows = mask[:, axis]
+                if rows.sum() >= 2:
+                    a = canonical[rows, axis] - canonical[rows, axis].mean()
+                    b = wanted[rows, axis] - wanted[rows, axis].mean()
+                    cost += float(np.sum((a - b) ** 2))
+            fits.append((cost, u, f))
+    fits.sort()
+    close = [(u, f) for cost, u, f in fits if cost <= fits[0][0] / FRAME_MARGIN + 1e-9]
+    return (close[0][0] if len({u for u, _ in close}) == 1 else up,
+            close[0][1] if len({f for _, f in close}) == 1 else front)
+
+
 def outside_distances(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """[M] how far each point lies outside the surface (0 inside it, by the generalized winding number)."""
     import igl

@@ -137,5 +137,7 @@ def batch_summary(result, output_dir: str) -> str:
     doubtful = counts["doubtful"]
     doubts = (f"; {doubtful} rig{'s' * (doubtful != 1)} doubtful (probably wrong: look at "
               f"{'them' if doubtful != 1 else 'it'})" if doubtful else "")
+    marked = sum(a.markers is not None for a in result.assets)
+    doubts += f"; {marked} with markers" if marked else ""
     return (f"{len(result.assets)} assets: {counts['ok']} rigged, {counts['failed']} failed, {unchanged}{doubts}, "
             f"{result.seconds:.1f} s -> {output_dir}")
