@@ -12,6 +12,7 @@ import base64
 import hashlib
 import json
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -261,6 +262,26 @@ def test_a_reviewer_places_markers_and_gets_the_file_in_input_coordinates(batch,
     # The file is what autorig --markers reads: names the biped accepts, inside the mesh, sides agreeing.
     read = read_markers(target, "biped")
     check_markers(read, vertices, faces, left=frame[0], height=height, source=target.name)
+
+    # Saved beside the asset, the same batch again rigs that asset with them and leaves the other as it was.
+    again_assets, again_out = tmp_path / "assets", tmp_path / "rigged"
+    shutil.copytree(assets, again_assets)
+    shutil.copytree(out, again_out)
+    shutil.copyfile(target, again_assets / "zup.markers.json")
+    result = CliRunner().invoke(cli, ["batch", str(again_assets), "-o", str(again_out), "--html",
+                                      str(again_out / "review.html"), "--report", str(again_out / "again.json")])
+    assert result.exit_code == 0, result.output
+    report = {a["input"]: a for a in json.loads((again_out / "again.json").read_text())["assets"]}
+    assert report["zup.obj"]["status"] == "ok" and report["zup.obj"]["markers"] == "zup.markers.json"
+    assert report["hero.obj"]["status"] == "skipped" and report["hero.obj"].get("markers") is None
+    marked = read_glb(again_out / "zup.rigged.glb")
+    for side in ("left_knee", "right_knee"):
+        assert np.linalg.norm(marked.joints[marked.names.index(side)] - points[side]) < 0.01 * height, side
+    # The new page says so on the card and shows those markers in the view.
+    page_text = (again_out / "review.html").read_text()
+    assert "markers zup.markers.json" in page_text
+    shown = {v["name"]: v["given"] for v in views_of(again_out / "review.html") if v}
+    assert shown["zup.obj"] == markers and shown["hero.obj"] == {}
 
 
 @needs_chromium
