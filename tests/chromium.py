@@ -25,7 +25,7 @@ from pathlib import Path
 
 EXECUTABLE = shutil.which("chromium")
 # No network of any kind (the page must not need one), no first-run or background work, a fresh profile.
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--remote-debugging-pipe"]
 
