@@ -324,3 +324,88 @@ def test_rigs_left_out_of_a_large_batch_page_are_read_from_their_files(batch, tm
     finally:
         server.shutdown()
         server.server_close()
+
+
+@pytest.fixture(scope="module")
+def knee_motion(tmp_path_factory):
+    """A BVH of the mannequin's own skeleton (CMU names) holding the left knee bent 60 degrees, the root 0.1 m
+    down and going forward 3 cm a frame: 12 frames at 24 fps."""
+    from rig_samples import mannequin_bvh
+    path = tmp_path_factory.mktemp("motion") / "kneel.bvh"
+    path.write_text(mannequin_bvh([{"left_knee": (60, 0, 0)}] * 12, [(0, -0.1, 0.03 * i) for i in range(12)]))
+    return path
+
+
+def test_a_motion_is_retargeted_onto_each_rig_for_the_page(batch, knee_motion, tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    from autorig.exchange.animated_gltf import quaternions
+    from autorig.exchange.bvh import read_bvh
+    from autorig.show.pose import retarget
+    assets, out, page = batch
+    result = CliRunner().invoke(cli, ["batch", str(assets), "-o", str(out), "--html", str(out / "walk.html"),
+                                      "--motion", str(knee_motion)])
+    assert result.exit_code == 0, result.output
+    views = {v["name"]: v for v in views_of(out / "walk.html") if v}
+    for name in ("hero.obj", "zup.obj"):
+        track = views[name]["motion"]
+        assert track["name"] == "kneel.bvh" and track["frames"] == 12 and track["fps"] == pytest.approx(24)
+        assert "left_knee" in track["joints"] and track["root"] == "hips"
+        rotations = np.frombuffer(base64.b64decode(track["rotations"]), "<f4").reshape(12, len(track["joints"]), 4)
+        # What autorig pose would write for that rig (float32), the left knee turning most (the root aside).
+        rig = read_glb(out / name.replace(".obj", ".rigged.glb"))
+        animation = retarget(rig, read_bvh(knee_motion))
+        expected = quaternions(animation.local)[:, animation.animated]
+        assert np.allclose(rotations, expected, atol=1e-6)
+        turns = Rotation.from_quat(rotations[5].astype(np.float64)).magnitude()
+        turns[track["joints"].index("hips")] = 0
+        assert track["joints"][int(np.argmax(turns))] == "left_knee" and np.degrees(turns.max()) > 40
+        # In place: the root goes down as the retargeted motion has it, but not forward.
+        up = frame_rotation(*(("y", "z") if name == "hero.obj" else ("z", "-y")))[1]
+        moved = np.frombuffer(base64.b64decode(track["translations"]), "<f4").reshape(12, 3)[5] - rig.joints[0]
+        down = (animation.positions[5, 0] - rig.joints[0]) @ up
+        height = float(np.ptp(rig.vertices @ up))
+        assert down < -0.03 * height and moved @ up == pytest.approx(down, abs=1e-5 * height)
+        assert np.linalg.norm(animation.positions[5, 0] - rig.joints[0] - down * up) > 0.04 * height
+        assert np.linalg.norm(moved - (moved @ up) * up) < 1e-5 * height
+    # The BVH is read before any rigging: a bad one, or one without a page to play it, stops the batch (exit 2).
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("not a motion\n")
+    for args, message in ((["--html", str(out / "x.html"), "--motion", str(bad)], "no MOTION section"),
+                          (["--motion", str(knee_motion)], "--html")):
+        result = CliRunner().invoke(cli, ["batch", str(assets), "-o", str(tmp_path / "none"), *args])
+        assert result.exit_code == 2 and message in result.output and not (tmp_path / "none").exists()
+    assert read_bvh(knee_motion).frame_time == pytest.approx(1 / 24)
+
+
+@needs_chromium
+def test_the_view_plays_the_motion(batch, knee_motion, tmp_path):
+    assets, out, page = batch
+    walk = out / "walk.html"
+    if not walk.is_file():
+        result = CliRunner().invoke(cli, ["batch", str(assets), "-o", str(out), "--html", str(walk),
+                                          "--motion", str(knee_motion)])
+        assert result.exit_code == 0, result.output
+    with Chromium(width=1300, height=950) as browser:
+        browser.open(walk)
+        open_view(browser, "hero.obj")
+        assert browser.evaluate("Array.from(document.getElementById('view-motion').options, o => o.text)") == [
+            "every bone in turn", "kneel.bvh (in place)"]
+        assert browser.evaluate("document.getElementById('view-motion').value") == "bvh"
+        rest = canvas_pixels(browser, tmp_path / "rest.png")
+        browser.click_on("#view-move")
+        browser.evaluate("new Promise(done => setTimeout(done, 300))")
+        bent = canvas_pixels(browser, tmp_path / "bent.png")
+        changed = np.abs(bent - rest).max(axis=2) > 30
+        assert changed.sum() > 200
+        # The left shin swings back (the picture's right, low down); the bones point where the motion's do, so
+        # the A-pose rig's arms also rise to the BVH's T.
+        # Seen from the front, the bent leg's foot ends well above the other's.
+        rows, columns = np.nonzero(mesh_mask(rest))
+        middle, height = int(np.median(columns)), np.ptp(rows)
+        feet = mesh_mask(bent)
+        left_foot, right_foot = (np.nonzero(half.any(axis=1))[0].max() for half in (feet[:, middle:], feet[:, :middle]))
+        assert right_foot - left_foot > 0.05 * height, (left_foot, right_foot, height)
+        browser.click_on("#view-move")
+        assert (np.abs(canvas_pixels(browser, tmp_path / "again.png") - rest).max(axis=2) > 30).sum() < 20
+        assert browser.console_messages() == []

@@ -37,16 +37,19 @@ WEAK_PART = 0.8  # a confidence part below this is marked: it is what pulls the 
 SLOWEST_SHOWN = 3  # stages named on the card itself; the others are in its list of stage times
 
 
-def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRICT_THRESHOLD) -> None:
+def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRICT_THRESHOLD, motion=None,
+                 motion_name: str = "motion") -> None:
     """Write the review page of ``result`` to ``path`` (atomically); links to the rigs are relative to it.
 
-    low  confidence below which a rig counts as doubtful (default: where ``--strict`` stops)
+    low     confidence below which a rig counts as doubtful (default: where ``--strict`` stops)
+    motion  a BVH ``Motion`` (``autorig.exchange.bvh``) the 3D view can also play, retargeted onto each rig it
+            drives, called ``motion_name`` on the page
     Raises ``OutputError`` if ``path`` cannot be written.
     """
     from ..exchange import write_file_atomic
     from ..show.viewer import install_three
     page_dir = Path(os.path.abspath(path)).parent
-    page = review_page(result, page_dir, low)
+    page = review_page(result, page_dir, low, motion, motion_name)
     install_three(page_dir)
     write_file_atomic(path, page.encode("utf-8", "backslashreplace"))  # a file name's undecodable bytes
 
@@ -64,7 +67,8 @@ def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> li
     return [asset for _, asset in sorted(enumerate(assets), key=rank)]
 
 
-def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD) -> str:
+def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD, motion=None,
+                motion_name: str = "motion") -> str:
     """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there, and
     ``write_review`` puts three.js there for the 3D view)."""
     from ..show.viewer import THREE_FILE, VIEWER_STYLE, rig_views, viewer_markup
@@ -83,7 +87,8 @@ def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHO
     notes = [f"{earlier_failed} of the skipped assets failed in the run that rigged them"] if earlier_failed else []
     notes.append(f"doubtful: confidence below {low:g}, probably wrong (look at its pictures); parts below "
                  f"{WEAK_PART:g} are marked")
-    views, blobs = rig_views(assets, result.output_dir, result.input_dir, page_dir)
+    views, blobs = rig_views(assets, result.output_dir, result.input_dir, page_dir, motion=motion,
+                             motion_name=motion_name)
     cards = "\n".join(_card(a, rank, result.output_dir, page_dir, low, views[rank] is not None)
                       for rank, a in enumerate(assets))
     title = f"autorig batch: {result.input_dir.name or result.input_dir}"

@@ -44,6 +44,8 @@ THREE_VERSION = "0.187.0"
 THREE_FILE = f"three-{THREE_VERSION}.min.js"
 THREE_LICENSE = f"three-{THREE_VERSION}.LICENSE.txt"   # beside the page
 INLINE_BUDGET = 8 << 20          # bytes of rigs inlined into one page (as base64: 4/3 of it)
+MOTION_FPS = 30                  # a BVH motion is sampled at most this often for the page
+DRIVEN_SHARE = 0.5               # a motion driving fewer of a rig's joints (tips aside) is not offered for it
 VIEWABLE = (".glb", ".gltf")
 MAX_MARKERS_BYTES = 1 << 20      # a markers file beside an asset larger than this is not shown on the page
 
@@ -106,8 +108,47 @@ def _on_the_surface(names: list[str]) -> list[str]:
     return [name for name in names if marker_of(name).joint != name]
 
 
-def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget: int | None = None
-              ) -> tuple[list[dict | None], dict[str, str]]:
+def motion_track(rig_file: Path, motion, name: str) -> dict | None:
+    """``motion`` (a BVH ``Motion``) retargeted onto the rig in ``rig_file`` as ``autorig pose`` does
+    (``autorig.show.pose.retarget``, by joint names), for the page: name, fps, frames, joints (the names of the
+    joints it turns), rotations (base64 of float32 [frames, joints, 4]: each joint's local rotation, x y z w, the
+    glTF node's), root and translations (base64 of float32 [frames, 3]: the root's position, in place: its rise
+    and fall kept, its travel over the ground left out, so the rig stays in view). Sampled at most
+    ``MOTION_FPS`` times a second. None when the rig cannot take it (its root unmapped, or fewer than
+    ``DRIVEN_SHARE`` of its joints driven)."""
+    import numpy as np
+
+    from ..errors import AutorigError
+    from ..exchange.animated_gltf import quaternions
+    from ..exchange.gltf import read_glb
+    from .pose import retarget
+    try:
+        rig = read_glb(rig_file)
+        animation = retarget(rig, motion)
+    except AutorigError:
+        return None
+    tips = np.array([n.endswith("_end") for n in rig.names])
+    moving = animation.animated
+    if not (~tips).any() or moving[~tips].mean() < DRIVEN_SHARE:
+        return None
+    step = max(1, round(1 / (motion.frame_time * MOTION_FPS))) if motion.frame_time > 0 else 1
+    rotations = quaternions(animation.local)[::step][:, moving]
+    root = int(np.flatnonzero(np.asarray(rig.parents) < 0)[0])
+    up = frame_rotation(rig.info.get("up", "y"), rig.info.get("front", "z"))[1]
+    rest = np.asarray(rig.joints[root], dtype=np.float64)
+    rise = (animation.positions[::step, root] - rest) @ up
+    translations = rest + rise[:, None] * up
+
+    def packed(array) -> str:
+        return base64.b64encode(np.ascontiguousarray(array, dtype="<f4").tobytes()).decode("ascii")
+
+    return {"name": name, "fps": 1 / (motion.frame_time * step) if motion.frame_time > 0 else float(MOTION_FPS),
+            "frames": len(rotations), "joints": [n for n, m in zip(rig.names, moving) if m],
+            "rotations": packed(rotations), "root": rig.names[root], "translations": packed(translations)}
+
+
+def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget: int | None = None,
+              motion=None, motion_name: str = "motion") -> tuple[list[dict | None], dict[str, str]]:
     """For each of ``assets`` (``AssetResult``, in the page's order): the 3D view's data, or None for an asset
     without a rig it can show; and {element id: base64} of the rigs inlined, in that order while their total
     stays within ``budget`` bytes (default ``INLINE_BUDGET``).
@@ -117,7 +158,8 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
     of the view's x, y, z), template (None where markers do not apply), markers (the template's marker set),
     surface (those of them placed on the surface; the others, joints, in the middle of the limb),
     markers_file (``<asset stem>.markers.json``), beside (the asset's folder in the input folder) and given
-    (the markers already in that file beside the asset, in input coordinates).
+    (the markers already in that file beside the asset, in input coordinates); with ``motion`` (a BVH
+    ``Motion`` called ``motion_name``), motion: its ``motion_track`` for that rig (None where it does not apply).
     """
     from urllib.parse import quote
     views: list[dict | None] = []
@@ -146,7 +188,8 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
             "markers_file": markers_file_name(asset.input),
             "beside": Path(asset.input).parent.as_posix(),
             "given": given_markers(source.parent, markers_file_name(asset.input), Path(input_dir))
-            if markers is not None else {}})
+            if markers is not None else {},
+            "motion": motion_track(rig, motion, motion_name) if motion is not None else None})
     return views, blobs
 
 
@@ -185,6 +228,7 @@ touch-action:none;cursor:crosshair}.vside{flex:1;padding:.5em;font-size:12px;ove
 
 _DIALOG = """<dialog id="viewer" data-state="closed"><div class="vbar"><h2 id="view-title"></h2>
 <label>weights of <select id="view-joint" aria-label="weights of a joint"></select></label>
+<label>motion <select id="view-motion" aria-label="motion"></select></label>
 <button type="button" id="view-move">move</button><button type="button" id="view-close">close</button></div>
 <div class="vbody"><canvas id="view-canvas" aria-label="the rig in 3D: drag to turn, wheel to zoom"></canvas>
 <div class="vside"><p>Drag to turn, right-drag to pan, wheel to zoom.</p>

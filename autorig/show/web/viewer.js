@@ -9,6 +9,7 @@ const views = JSON.parse(document.getElementById('views').textContent);
 const $ = id => document.getElementById(id);
 const dialog = $('viewer'), canvas = $('view-canvas'), status = $('view-status'), title = $('view-title');
 const jointMenu = $('view-joint'), markerMenu = $('view-marker'), moveButton = $('view-move');
+const motionMenu = $('view-motion');
 const list = $('view-markers'), saveButton = $('view-download'), clearButton = $('view-clear');
 const folderInput = $('view-folder'), folderBox = $('view-folder-box'), markerBox = $('view-marker-box');
 const MESH = 0x8fa8c8, BONE = 0xff7f00, MARKER = 0xff00ff;
@@ -21,7 +22,7 @@ if (!T || !T.GLTFLoader) {
 }
 let renderer = null, scene, camera, controls, model = null, skinned = [], bones = [], movers = [];
 let boneLines = null, jointPoints = null, markerGroup = null, markerRadius = 0.01;
-let view = null, frame = null, placed = {}, moving = false, start = 0, loop = 0, token = 0;
+let view = null, frame = null, placed = {}, moving = false, start = 0, loop = 0, token = 0, track = null;
 const folder = new Map();                  // a chosen output folder's files, by path inside it
 const material = new T.MeshLambertMaterial({color: MESH, side: T.DoubleSide});
 
@@ -120,7 +121,7 @@ function show(root) {
   });
   model.updateMatrixWorld(true);
   bones = skinned.length ? skinned[0].skeleton.bones : [];
-  for (const b of bones) { b.userData.rest = b.quaternion.clone(); }
+  for (const b of bones) { b.userData.rest = b.quaternion.clone(); b.userData.at = b.position.clone(); }
   const box = new T.Box3();
   for (const m of skinned) {
     m.geometry.computeBoundingBox();
@@ -136,6 +137,10 @@ function show(root) {
   camera.updateProjectionMatrix();
   controls.update();
   movers = bendable();
+  track = view.motion ? decoded(view.motion) : null;
+  motionMenu.replaceChildren(new Option('every bone in turn', ''),
+                             ...(track ? [new Option(view.motion.name + ' (in place)', 'bvh')] : []));
+  motionMenu.value = track ? 'bvh' : '';
   boneLines = new T.LineSegments(new T.BufferGeometry(),
     new T.LineBasicMaterial({color: BONE, depthTest: false, transparent: true}));
   jointPoints = new T.Points(new T.BufferGeometry(),
@@ -169,9 +174,22 @@ function bendable() {
   return result;
 }
 
+// A BVH motion retargeted in Python (autorig.show.viewer.motion_track): each frame's local rotations of the
+// joints it turns, and the root's position.
+function decoded(m) {
+  const byName = new Map(bones.map(b => [b.name, b]));
+  const named = n => byName.get(n) || byName.get(T.PropertyBinding.sanitizeNodeName(n)) || null;
+  return {fps: m.fps, frames: m.frames, bones: m.joints.map(named), root: named(m.root),
+          rotations: new Float32Array(bytesOf(m.rotations)), translations: new Float32Array(bytesOf(m.translations))};
+}
+
 function pose(seconds) {
-  for (const b of bones) b.quaternion.copy(b.userData.rest);
-  if (moving && movers.length) {
+  for (const b of bones) { b.quaternion.copy(b.userData.rest); b.position.copy(b.userData.at); }
+  if (moving && track && motionMenu.value === 'bvh') {
+    const f = Math.floor(seconds * track.fps) % track.frames, count = track.bones.length;
+    track.bones.forEach((b, k) => { if (b) b.quaternion.fromArray(track.rotations, 4 * (f * count + k)); });
+    if (track.root) track.root.position.fromArray(track.translations, 3 * f);
+  } else if (moving && movers.length) {
     const beat = seconds / BEAT, m = movers[Math.floor(beat) % movers.length];
     const bend = new T.Quaternion().setFromAxisAngle(m.axis, BEND * Math.sin(Math.PI * (beat % 1)));
     m.bone.quaternion.multiply(bend);
@@ -246,6 +264,7 @@ function showWeights() {
   draw();
 }
 jointMenu.addEventListener('change', showWeights);
+motionMenu.addEventListener('change', () => { start = performance.now(); if (!moving) draw(); });
 
 function fillMenus() {
   const names = bones.map(b => b.name);
