@@ -9,6 +9,8 @@ repo, with its mixed templates: biped, quadruped, horse, auto). One ``autorig ba
 - bytes: the page (review.html: cards, thumbnails, the viewer's script and data, the rigs inlined within
   ``INLINE_BUDGET``), three.js beside it, the rigs' .glb files; three.js's share of what a reviewer downloads
   (page + three.js), and of page + three.js + the rigs not inlined (what the page reads when it is served);
+- the page's load event from disk in Chromium (3 loads; the inlined rigs are parsed as text, decoded only when
+  opened);
 - per rig, in Chromium (1300 x 950 window, SwiftShader WebGL as in CI): the time from the click on "3D view"
   to a drawn rig (bytes decoded, glTF parsed, first frame), and the motion's frames per second over 2 s.
 """
@@ -90,6 +92,10 @@ def sizes(page: Path, out: Path, report: Path) -> None:
     print(f"rigs not inlined: {left_out:,} bytes; three.js = {three / (page_bytes + three + left_out):.1%} of page + "
           f"three.js + those rigs ({page_bytes + three + left_out:,} bytes)")
     print(f"all .glb rigs: {sum(rigs.values()):,} bytes")
+    from autorig.show.viewer import WEB
+    script = (WEB / "viewer.js").stat().st_size
+    print(f"the viewer's own script (inline in the page): {script:,} bytes; with three.js, the viewer is "
+          f"{(script + three) / (page_bytes + three):.1%} of page + three.js")
 
 
 def in_the_browser(page: Path) -> None:
@@ -108,6 +114,11 @@ def in_the_browser(page: Path) -> None:
     threading.Thread(target=server.serve_forever, daemon=True).start()
     try:
         with Chromium(width=1300, height=950, timeout=300) as browser:
+            loads = []
+            for _ in range(3):
+                browser.open(page)
+                loads.append(browser.evaluate("performance.getEntriesByType('navigation')[0].loadEventEnd"))
+            print(f"\nthe page from disk: load event after {', '.join(f'{t:.0f}' for t in loads)} ms (3 loads)")
             browser.open_url(f"http://127.0.0.1:{server.server_address[1]}/{page.name}")
             names = browser.evaluate("Array.from(document.querySelectorAll('button.view3d'), "
                                      "b => b.closest('article').dataset.name)")

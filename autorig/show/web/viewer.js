@@ -132,7 +132,11 @@ function show(root) {
   const span = Math.max(size.x, size.y, size.z) || 1;
   markerRadius = 0.012 * span;
   camera.near = span / 100; camera.far = span * 100;
-  camera.position.set(centre.x, centre.y, centre.z + 2.4 * Math.max(size.y, size.x));
+  // From the front for an upright shape (a biped: left and right apart), from its left and a little ahead for
+  // a long one (a four-legged animal: its legs apart); far enough for the whole bounding sphere.
+  const turn = size.z > 1.2 * size.x ? Math.PI / 3 : 0;
+  const distance = 1.05 * box.getBoundingSphere(new T.Sphere()).radius / Math.sin(T.MathUtils.degToRad(camera.fov / 2));
+  camera.position.copy(centre).add(new T.Vector3(Math.sin(turn), 0.12, Math.cos(turn)).normalize().multiplyScalar(distance));
   controls.target.copy(centre);
   camera.updateProjectionMatrix();
   controls.update();
