@@ -283,6 +283,7 @@ function fillMenus() {
   if (set.length) {
     const g = document.createElement('optgroup');
     g.label = 'the ' + view.template + ' markers';
+    g.dataset.set = 'yes';
     g.append(...set.map(n => new Option(n, n)));
     groups.push(g);
   }
@@ -296,7 +297,7 @@ function fillMenus() {
 
 function nextMarker() {
   const free = Array.from(markerMenu.options).find(o => o.value && !(o.value in placed) &&
-                                                       o.parentElement.label.startsWith('the '));
+                                                       o.parentElement.dataset.set === 'yes');
   markerMenu.value = free ? free.value : '';
 }
 
