@@ -25,7 +25,7 @@ from autorig import samples
 from autorig.cli import cli
 from autorig.exchange.gltf import read_glb
 from autorig.input.mesh import frame_rotation, load_mesh
-from autorig.markers import check_markers, marker_names, read_markers
+from autorig.markers import accepted_names, check_markers, marker_names, read_markers
 from autorig.show import viewer
 
 pytest.importorskip("PIL", reason="the preview extra (Pillow) is not installed")
@@ -88,6 +88,7 @@ def test_page_data_records_the_turn_back_to_the_input(batch):
     blob = text[text.index(f'id="{zup["inline"]}">') + len(f'id="{zup["inline"]}">'):]
     assert base64.b64decode(blob[:blob.index("<")]) == (out / "zup.rigged.glb").read_bytes()
     assert zup["markers"] == marker_names("biped") and set(zup["surface"]) == {"chin", "groin"}
+    assert zup["joints"] == [n for n in accepted_names("biped") if n not in zup["markers"]]
     assert zup["markers_file"] == "zup.markers.json" and zup["given"] == {}
 
 
@@ -237,6 +238,15 @@ def test_a_reviewer_places_markers_and_gets_the_file_in_input_coordinates(batch,
             browser.click(x, y)
         listed = browser.evaluate("Array.from(document.querySelectorAll('#view-markers li'), li => li.textContent)")
         assert [item.split()[0] for item in listed] == ["chin", "left_knee", "right_knee", "groin"], listed
+        # The markers are drawn (magenta) over the mesh; one placed by mistake is removed from the list.
+        pixels = canvas_pixels(browser, tmp_path / "placed.png")
+        assert (np.abs(pixels - [255, 0, 255]).max(axis=2) < 40).sum() > 4 * 20
+        browser.evaluate("(m => { m.value = 'left_wrist'; m.dispatchEvent(new Event('change')); })"
+                         "(document.getElementById('view-marker'))")
+        browser.click(*browser.evaluate(f"autorigViewer.screenOf({joint['left_wrist'].tolist()})"))
+        assert browser.evaluate("document.querySelectorAll('#view-markers li').length") == 5
+        browser.click_on("#view-markers li:last-child button")
+        assert browser.evaluate("document.querySelectorAll('#view-markers li').length") == 4
         browser.click_on("#view-download")
         target = downloads / "zup.markers.json"
         for _ in range(100):

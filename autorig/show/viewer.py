@@ -87,18 +87,20 @@ def given_markers(folder: Path, name: str, root: Path) -> dict[str, list[float]]
             and all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in point)}
 
 
-def _marker_set(template: str) -> list[str] | None:
-    """The template's marker set (``autorig.markers.marker_names``), which the page offers first, its joint
-    names after it; [] for a template it cannot load here; None when markers do not apply (the template-free
-    skeleton, the user's own skeleton)."""
+def _marker_set(template: str) -> tuple[list[str], list[str] | None] | None:
+    """(the template's marker set, its other joint names) as ``autorig.markers`` accepts them in a markers file
+    (the page offers the set first, the joints after it: the template's names, whatever names the rig was
+    written with); ([], None) for a template it cannot load here (the page then offers the rig's joint names);
+    None when markers do not apply (the template-free skeleton, the user's own skeleton)."""
     from ..errors import AutorigError
-    from ..markers import marker_names
+    from ..markers import accepted_names, marker_names
     if template == "auto" or template.startswith("skeleton "):
         return None
     try:
-        return marker_names(template)
+        own = marker_names(template)
+        return own, [name for name in accepted_names(template) if name not in own]
     except (AutorigError, OSError):
-        return []
+        return [], None
 
 
 def _on_the_surface(names: list[str]) -> list[str]:
@@ -156,6 +158,7 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
     A view's data: name (the asset's input path), output (the rig's path in the output folder), href (the rig
     relative to the page), inline (the id of its inlined bytes, or None), frame (3 rows: the input's directions
     of the view's x, y, z), template (None where markers do not apply), markers (the template's marker set),
+    joints (the template's other names a markers file accepts, or None: the rig's own joint names then),
     surface (those of them placed on the surface; the others, joints, in the middle of the limb),
     markers_file (``<asset stem>.markers.json``), beside (the asset's folder in the input folder) and given
     (the markers already in that file beside the asset, in input coordinates); with ``motion`` (a BVH
@@ -171,7 +174,8 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
             views.append(None)
             continue
         href = Path(os.path.relpath(os.path.abspath(rig), page_dir)).as_posix()
-        markers = _marker_set(asset.template)
+        accepted = _marker_set(asset.template)
+        markers, joints = accepted if accepted is not None else (None, None)
         inline = None
         size = rig.stat().st_size
         if size <= left:
@@ -184,7 +188,7 @@ def rig_views(assets, output_dir: Path, input_dir: Path, page_dir: Path, budget:
         views.append({
             "name": asset.input, "output": asset.output, "href": quote(href, errors="surrogateescape"),
             "inline": inline, "frame": frame, "template": None if markers is None else asset.template,
-            "markers": markers or [], "surface": _on_the_surface(markers or []),
+            "markers": markers or [], "joints": joints, "surface": _on_the_surface(markers or []),
             "markers_file": markers_file_name(asset.input),
             "beside": Path(asset.input).parent.as_posix(),
             "given": given_markers(source.parent, markers_file_name(asset.input), Path(input_dir))

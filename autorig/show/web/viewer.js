@@ -278,7 +278,7 @@ function fillMenus() {
   material.needsUpdate = true;
   markerBox.hidden = !view.template;
   const set = view.markers || [];
-  const others = names.filter(n => !set.includes(n) && !n.endsWith('_end'));
+  const others = (view.joints || names).filter(n => !set.includes(n) && !n.endsWith('_end'));
   const groups = [];
   if (set.length) {
     const g = document.createElement('optgroup');
