@@ -49,7 +49,7 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--html", metavar="PATH",
               help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
                    "ones first, and a 3D view of each (turn it, see it move, its weights, place markers and download "
-                   "STEM.markers.json to put beside the asset); offline, three.js beside it. Needs Pillow: pip "
+                   "STEM.markers.json to put beside the asset); offline, three.js beside it; needs Pillow: pip "
                    "install 'autorig[preview]'. Also: "
                    "html = \"PATH\" in INPUT_DIR's "
                    "autorig.toml, relative to OUTPUT_DIR.")
