@@ -12,15 +12,22 @@ glance; every joint name of the template is accepted too (``accepted_names``):
 - quadruped, horse: the four paws, the head, the tail base and the withers;
 - centaur: the human half's chin, wrists and elbows, the four paws and the tail base.
 
-A marker holds one joint (``MARKERS``): a joint's own name, a wrist, elbow, knee, paw, the head or the tail base
+A marker holds one joint (``marker_of``): a joint's own name, a wrist, elbow, knee, paw, the head or the tail base
 puts that joint at the point. Three markers are points on the surface, and hold only what they say about the
 joint inside (in the canonical frame: x the character's left, y up, z its front; offsets in heights):
 
 - chin: the head joint (the skull's pivot) at the chin's height plus ``offset`` and on its mid-plane, as deep
   as the rig puts it;
-- groin: the hips at the crotch's height plus ``offset``, its side-to-side and front-to-back place;
+- groin: the hips at the crotch's height plus ``offset`` and on its mid-plane, as deep as the rig puts them;
 - withers: the neck's base (``neck``), over the top of the shoulders, front-to-back plus ``offset``; its
   height is the rig's.
+
+How the rig honours them (``autorig.pipeline.rig``): the axes left "auto" are the markers' when they tell
+(``marker_frame``); the discrete embedding puts each chain in the limb of the markers that hold a joint whole
+(``autorig.embed.penalties``: a penalty for a path that misses one by more than 5 % of the height), so that the
+rest of the skeleton is placed in those limbs as without markers; the marked joints are put at their markers
+once the joints are in the rig's convention (where the user sees them), and kept there by each stage after it
+(legs, head, tips, hands), so that the weights are made with them.
 
 The offsets are the medians measured on the artists' rigs of the corpus and shared data
 (``python benchmarks/markers.py --measure``): the hips 6.6 % of the height above the crotch (58 bipeds), the head
@@ -38,6 +45,7 @@ import numpy as np
 
 from .errors import InputError
 
+MARKERS_BYTES = 1 << 20   # a markers file is a few lines: a larger one is refused before it is read
 SIDE_TOLERANCE = 0.02   # heights: a pair's left marker this far on the right is a contradiction, and a marker
 OUTSIDE_TOLERANCE = 0.02  # this far outside the surface is outside it
 
@@ -54,7 +62,7 @@ class Marker:
 
 # The named markers. A wrist, elbow, knee or paw is that joint; the surface landmarks hold what they tell.
 CHIN = Marker("head", (0, 1), (0.0, 0.019, 0.0))
-GROIN = Marker("hips", (0, 1, 2), (0.0, 0.066, 0.0))
+GROIN = Marker("hips", (0, 1), (0.0, 0.066, 0.0))
 WITHERS = Marker("neck", (0, 2), (0.0, 0.0, 0.058))
 
 _BIPED = ("chin", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_knee", "right_knee", "groin")
@@ -99,13 +107,12 @@ def read_markers(path, template) -> dict[str, np.ndarray]:
     of names the template accepts (``accepted_names``) to three finite numbers. The points are the input's own
     coordinates; whether they lie in the mesh and agree on left and right is checked once the mesh is read
     (``check_markers``)."""
+    from .input.limits import read_regular
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = read_regular(path, MARKERS_BYTES).decode("utf-8")
     except FileNotFoundError:
         raise InputError(f"markers file not found: {path}") from None
-    except IsADirectoryError:
-        raise InputError(f"markers file is a folder: {path}") from None
     except UnicodeDecodeError:
         raise InputError(f"markers file {path.name}: not JSON (not UTF-8 text)") from None
     except OSError as error:
@@ -186,20 +193,17 @@ def sides_agree(markers: dict[str, np.ndarray], left: np.ndarray, height: float)
 @dataclass(frozen=True)
 class Held:
     """Joints held at markers, in a rig's canonical frame: ``index`` [M] template joint indices, ``mask`` [M, 3]
-    the axes each holds, ``target`` [M, 3] where (meaningful where ``mask``), ``names`` [M] the markers';
-    ``follow`` [J, M] how much each joint follows each held joint's move (``held_joints``)."""
+    the axes each holds, ``target`` [M, 3] where (meaningful where ``mask``), ``names`` [M] the markers'."""
     index: np.ndarray
     mask: np.ndarray
     target: np.ndarray
     names: tuple[str, ...]
-    follow: np.ndarray
 
     def apply(self, joints: np.ndarray) -> np.ndarray:
-        """A copy of ``joints`` [J, 3] with the held joints' held coordinates at their markers, and the others
-        moved by their share of those moves (``follow``)."""
+        """A copy of ``joints`` [J, 3] with the held joints' held coordinates at their markers. The others stay
+        where the stages put them, in the limbs the embedding chose with the markers (moving them along with a
+        marked joint made the other joints farther from the artists' on the corpus: ``benchmarks/markers.py``)."""
         out = np.array(joints, dtype=np.float64)
-        moves = np.where(self.mask, self.target - out[self.index], 0.0)
-        out += self.follow @ moves
         out[self.index] = np.where(self.mask, self.target, out[self.index])
         return out
 
@@ -232,40 +236,7 @@ def held_joints(markers: dict[str, np.ndarray], template, to_canonical) -> Held:
         index.append(list(template.names).index(marker.joint))
         mask.append(held)
         target.append(point + np.asarray(marker.offset) * held)
-    index = np.array(index, dtype=np.int64)
-    return Held(index, np.array(mask), np.array(target), tuple(names), _follow(template, index))
-
-
-FOLLOW = 0.1   # heights along the skeleton over which a joint's share of a held joint's move falls by e
-
-
-def _follow(template, index: np.ndarray) -> np.ndarray:
-    """[J, M] each joint's share of each held joint's move: exp(-d / FOLLOW) for d its distance from it along
-    the template's bones, shared between the held joints in proportion (0 for the held joints themselves), so
-    that a marked wrist takes its hand along and a marked hips its spine, and a joint far from every marker
-    stays where the rig put it."""
-    J = len(template.names)
-    parents = np.asarray(template.parents)
-    neighbours = [[] for _ in range(J)]
-    for j in range(J):
-        if parents[j] >= 0:
-            length = float(np.linalg.norm(template.positions[j] - template.positions[parents[j]]))
-            neighbours[j].append((int(parents[j]), length))
-            neighbours[int(parents[j])].append((j, length))
-    distance = np.full((J, len(index)), np.inf)
-    for m, start in enumerate(index):
-        distance[start, m] = 0.0
-        todo = [int(start)]
-        while todo:
-            j = todo.pop()
-            for k, length in neighbours[j]:
-                if distance[j, m] + length < distance[k, m]:
-                    distance[k, m] = distance[j, m] + length
-                    todo.append(k)
-    weight = np.exp(-distance / FOLLOW)
-    share = weight * (weight.max(axis=1, keepdims=True) / np.maximum(weight.sum(axis=1, keepdims=True), 1e-300))
-    share[index] = 0.0
-    return share
+    return Held(np.array(index, dtype=np.int64), np.array(mask), np.array(target), tuple(names))
 
 
 FRAME_MARGIN = 0.5   # the markers choose the axes left "auto" when the best frame fits at most half as badly

@@ -202,11 +202,10 @@ def _held(markers, template, prepared, vertices, faces, options):
 def _markers_info(held, joints, options, up, front) -> dict:
     """What a rig's ``info`` says of its markers: their names, how far (in heights) the farthest marked joint
     lies from its marker, and which axes the markers chose."""
+    chosen = [axis for axis, given, used in (("up", options.up, up), ("front", options.front, front))
+              if given != used]
     return {"markers": list(held.names), "marker_error": round(float(held.distances(joints).max()), 5),
-            **({"axes_from_markers": [a for a, given, used in (("up", options.up, up), ("front", options.front,
-                                                                                          front))
-                                      if given == "auto" and used != "auto"]}
-               if (options.up, options.front) != (up, front) else {})}
+            **({"axes_from_markers": chosen} if chosen else {})}
 
 
 def discretize(prepared, stage=None):

@@ -29,7 +29,7 @@ height         0       the root's and branch joints' height against the template
                        sphere (off in the hand-set weights; ``autorig learn`` weighs it)
 markers        4.0     only with ``--markers`` (``autorig.markers``): a marked joint's sphere's distance from its
                        marker, and a bone's detour from its path to pass the sphere nearest a marked joint
-                       of its chain, beyond 3% of the height, per 5%: the limbs the markers are in
+                       of its chain, beyond 5% of the height, per 5%: the limbs the markers are in
 distinct       hard    no two joints on one sphere
 =============  ======  ========================================================================================
 """
@@ -53,7 +53,7 @@ PROMINENCE = 0.08         # how far (height units) a limb's end must stand out t
 FAT_FRACTION = 0.25       # a fat joint's sphere is at least this fraction of the largest sphere's radius
 MARKER_WEIGHT = 4.0       # per MARKER_UNIT of a marked joint's distance from its marker (``autorig.markers``)
 MARKER_UNIT = 0.05        # beyond MARKER_FREE: the embedding chooses the limbs, the later stages place the
-MARKER_FREE = 0.03        # joints within them (and put the marked ones at their markers)
+MARKER_FREE = 0.05        # joints within them (and put the marked ones at their markers)
 
 
 @dataclass
@@ -220,7 +220,7 @@ def build_problem(graph: SphereGraph, template: Template, held=None) -> Embeddin
         root_cost[candidates[0]] += weights["height"] * height_offset(graph, tpos[0, 1])[candidates[0]]
     if held is not None and reduced.joints[0] in held.index[held.whole]:
         m = int(np.flatnonzero(held.index == reduced.joints[0])[0])
-        root_cost[candidates[0]] += _beyond_free(away[m, candidates[0]])
+        root_cost[candidates[0]] += _beyond_free(away[m, candidates[0]] - away[m].min())
 
     names = [template.names[j] for j in reduced.joints]
     mirror_full = template.mirror_of()
@@ -239,8 +239,9 @@ def build_problem(graph: SphereGraph, template: Template, held=None) -> Embeddin
 def _marker_cost(held, graph: SphereGraph, chain: list[int], rows: np.ndarray, cols: np.ndarray,
                  away: np.ndarray) -> np.ndarray | float:
     """[P, C] the marker penalty of a reduced bone with its parent on spheres ``rows`` and its joint on ``cols``:
-    its joint's sphere's distance from its marker, and for each marked joint inside its chain, the detour of
-    the bone's path to pass that joint's nearest sphere (0 when the path goes through it). Only the markers
+    its joint's sphere's distance from its marker (beyond the nearest sphere's), and for each marked joint
+    inside its chain, the detour of the bone's path to pass that joint's nearest sphere (0 when the path goes
+    through it). Only the markers
     that hold a joint whole: a chin, groin or withers says where along its limb a joint lies, not which limb."""
     cost = 0.0
     D = graph.distances
@@ -248,11 +249,11 @@ def _marker_cost(held, graph: SphereGraph, chain: list[int], rows: np.ndarray, c
         if not held.whole[m]:
             continue
         if joint == chain[-1]:
-            cost = cost + _beyond_free(away[m, cols][None, :])
+            cost = cost + _beyond_free(away[m, cols][None, :] - away[m].min())
         elif joint in chain[1:-1]:
             near = int(np.argmin(away[m]))
             detour = D[rows, near][:, None] + D[near, cols][None, :] - D[np.ix_(rows, cols)]
-            cost = cost + _beyond_free(np.where(np.isfinite(detour), detour, np.inf) + away[m, near])
+            cost = cost + _beyond_free(np.where(np.isfinite(detour), detour, np.inf))
     return cost
 
 
