@@ -46,8 +46,8 @@ import numpy as np
 from .errors import InputError
 
 MARKERS_BYTES = 1 << 20   # a markers file is a few lines: a larger one is refused before it is read
-SIDE_TOLERANCE = 0.02   # heights: a pair's left marker this far on the right is a contradiction, and a marker
-OUTSIDE_TOLERANCE = 0.02  # this far outside the surface is outside it
+SIDE_TOLERANCE = 0.02     # heights: a pair's left marker this far on the character's right contradicts the axes
+OUTSIDE_TOLERANCE = 0.02  # heights: a marker this far from the surface, outside it, is outside the mesh
 
 
 @dataclass(frozen=True)
@@ -127,16 +127,17 @@ def read_markers(path, template) -> dict[str, np.ndarray]:
 def markers_from(data, template, source: str = "markers") -> dict[str, np.ndarray]:
     """The checks of ``read_markers`` on an already parsed object (``RigOptions(markers={...})``)."""
     if not isinstance(data, dict):
-        raise InputError(f"{source}: must be a JSON object of marker names to [x, y, z], "
-                         f"not {type(data).__name__ if not isinstance(data, list) else 'a list'}")
+        kind = {list: "a list", str: "a string", int: "a number", float: "a number", bool: "true or false",
+                type(None): "null"}.get(type(data), type(data).__name__)
+        raise InputError(f"{source}: must be a JSON object of marker names to [x, y, z], not {kind}")
     if not data:
         raise InputError(f"{source}: no markers in it")
     accepted = accepted_names(template)
     out = {}
     for name, value in data.items():
-        if name not in accepted:
+        if not isinstance(name, str) or name not in accepted:
             shown = ", ".join(accepted)
-            raise InputError(f"{source}: unknown marker {_quoted(name)}; the template accepts: {shown}")
+            raise InputError(f"{source}: unknown marker {_quoted(str(name))}; the template accepts: {shown}")
         point = _point(value)
         if point is None:
             raise InputError(f"{source}: marker {name!r} must be [x, y, z], three finite numbers, "
@@ -327,7 +328,10 @@ def mirror_name(name: str) -> str | None:
 
 
 def _point(value) -> np.ndarray | None:
-    if not isinstance(value, list) or len(value) != 3:
+    """[3] float64 of three finite numbers (a JSON list; a tuple or array from Python), else None."""
+    if isinstance(value, np.ndarray) and value.shape == (3,) and value.dtype.kind in "iuf":
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
         return None
     if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
         return None
@@ -336,7 +340,7 @@ def _point(value) -> np.ndarray | None:
 
 
 def _shown(value) -> str:
-    text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    text = json.dumps(value, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else repr(o))
     return text if len(text) <= 60 else text[:57] + "..."
 
 
