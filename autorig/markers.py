@@ -12,18 +12,27 @@ glance; every joint name of the template is accepted too (``accepted_names``):
 - quadruped, horse: the four paws, the head, the tail base and the withers;
 - centaur: the human half's chin, wrists and elbows, the four paws and the tail base.
 
-A marker holds one joint (``MARKERS``): a joint's own name, a wrist, elbow, knee, paw, the head or the tail base
+A marker holds one joint (``marker_of``): a joint's own name, a wrist, elbow, knee, paw, the head or the tail base
 puts that joint at the point. Three markers are points on the surface, and hold only what they say about the
 joint inside (in the canonical frame: x the character's left, y up, z its front; offsets in heights):
 
 - chin: the head joint (the skull's pivot) at the chin's height plus ``offset`` and on its mid-plane, as deep
   as the rig puts it;
-- groin: the hips at the crotch's height plus ``offset``, its side-to-side and front-to-back place;
+- groin: the hips at the crotch's height plus ``offset`` and on its mid-plane, as deep as the rig puts them;
 - withers: the neck's base (``neck``), over the top of the shoulders, front-to-back plus ``offset``; its
   height is the rig's.
 
-The offsets were measured on the artists' rigs of the corpus and shared data (``benchmarks/markers.py``
-``--measure`` prints them).
+How the rig honours them (``autorig.pipeline.rig``): the axes left "auto" are the markers' when they tell
+(``marker_frame``); the discrete embedding puts each chain in the limb of the markers that hold a joint whole
+(``autorig.embed.penalties``: a penalty for a path that misses one by more than 5 % of the height), so that the
+rest of the skeleton is placed in those limbs as without markers; the marked joints are put at their markers
+once the joints are in the rig's convention (where the user sees them), and kept there by each stage after it
+(legs, head, tips, hands), so that the weights are made with them.
+
+The offsets are the medians measured on the artists' rigs of the corpus and shared data
+(``python benchmarks/markers.py --measure``): the hips 6.6 % of the height above the crotch (58 bipeds), the head
+joint 1.9 % above the chin (58), the neck's base 5.8 % ahead of the point between the front shoulders (13
+four-legged animals).
 """
 from __future__ import annotations
 
@@ -36,8 +45,9 @@ import numpy as np
 
 from .errors import InputError
 
-SIDE_TOLERANCE = 0.02   # heights: a pair's left marker this far on the right is a contradiction, and a marker
-OUTSIDE_TOLERANCE = 0.02  # this far outside the surface is outside it
+MARKERS_BYTES = 1 << 20   # a markers file is a few lines: a larger one is refused before it is read
+SIDE_TOLERANCE = 0.02     # heights: a pair's left marker this far on the character's right contradicts the axes
+OUTSIDE_TOLERANCE = 0.02  # heights: a marker this far from the surface, outside it, is outside the mesh
 
 
 @dataclass(frozen=True)
@@ -51,9 +61,9 @@ class Marker:
 
 
 # The named markers. A wrist, elbow, knee or paw is that joint; the surface landmarks hold what they tell.
-CHIN = Marker("head", (0, 1), (0.0, 0.035, 0.0))
-GROIN = Marker("hips", (0, 1, 2), (0.0, 0.06, 0.0))
-WITHERS = Marker("neck", (0, 2), (0.0, 0.0, 0.05))
+CHIN = Marker("head", (0, 1), (0.0, 0.019, 0.0))
+GROIN = Marker("hips", (0, 1), (0.0, 0.066, 0.0))
+WITHERS = Marker("neck", (0, 2), (0.0, 0.0, 0.058))
 
 _BIPED = ("chin", "left_wrist", "right_wrist", "left_elbow", "right_elbow", "left_knee", "right_knee", "groin")
 _FOUR_LEGS = ("front_left_paw", "front_right_paw", "back_left_paw", "back_right_paw", "head", "tail_base",
@@ -97,13 +107,12 @@ def read_markers(path, template) -> dict[str, np.ndarray]:
     of names the template accepts (``accepted_names``) to three finite numbers. The points are the input's own
     coordinates; whether they lie in the mesh and agree on left and right is checked once the mesh is read
     (``check_markers``)."""
+    from .input.limits import read_regular
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = read_regular(path, MARKERS_BYTES).decode("utf-8")
     except FileNotFoundError:
         raise InputError(f"markers file not found: {path}") from None
-    except IsADirectoryError:
-        raise InputError(f"markers file is a folder: {path}") from None
     except UnicodeDecodeError:
         raise InputError(f"markers file {path.name}: not JSON (not UTF-8 text)") from None
     except OSError as error:
@@ -118,16 +127,17 @@ def read_markers(path, template) -> dict[str, np.ndarray]:
 def markers_from(data, template, source: str = "markers") -> dict[str, np.ndarray]:
     """The checks of ``read_markers`` on an already parsed object (``RigOptions(markers={...})``)."""
     if not isinstance(data, dict):
-        raise InputError(f"{source}: must be a JSON object of marker names to [x, y, z], "
-                         f"not {type(data).__name__ if not isinstance(data, list) else 'a list'}")
+        kind = {list: "a list", str: "a string", int: "a number", float: "a number", bool: "true or false",
+                type(None): "null"}.get(type(data), type(data).__name__)
+        raise InputError(f"{source}: must be a JSON object of marker names to [x, y, z], not {kind}")
     if not data:
         raise InputError(f"{source}: no markers in it")
     accepted = accepted_names(template)
     out = {}
     for name, value in data.items():
-        if name not in accepted:
+        if not isinstance(name, str) or name not in accepted:
             shown = ", ".join(accepted)
-            raise InputError(f"{source}: unknown marker {_quoted(name)}; the template accepts: {shown}")
+            raise InputError(f"{source}: unknown marker {_quoted(str(name))}; the template accepts: {shown}")
         point = _point(value)
         if point is None:
             raise InputError(f"{source}: marker {name!r} must be [x, y, z], three finite numbers, "
@@ -184,20 +194,17 @@ def sides_agree(markers: dict[str, np.ndarray], left: np.ndarray, height: float)
 @dataclass(frozen=True)
 class Held:
     """Joints held at markers, in a rig's canonical frame: ``index`` [M] template joint indices, ``mask`` [M, 3]
-    the axes each holds, ``target`` [M, 3] where (meaningful where ``mask``), ``names`` [M] the markers';
-    ``follow`` [J, M] how much each joint follows each held joint's move (``held_joints``)."""
+    the axes each holds, ``target`` [M, 3] where (meaningful where ``mask``), ``names`` [M] the markers'."""
     index: np.ndarray
     mask: np.ndarray
     target: np.ndarray
     names: tuple[str, ...]
-    follow: np.ndarray
 
     def apply(self, joints: np.ndarray) -> np.ndarray:
-        """A copy of ``joints`` [J, 3] with the held joints' held coordinates at their markers, and the others
-        moved by their share of those moves (``follow``)."""
+        """A copy of ``joints`` [J, 3] with the held joints' held coordinates at their markers. The others stay
+        where the stages put them, in the limbs the embedding chose with the markers (moving them along with a
+        marked joint made the other joints farther from the artists' on the corpus: ``benchmarks/markers.py``)."""
         out = np.array(joints, dtype=np.float64)
-        moves = np.where(self.mask, self.target - out[self.index], 0.0)
-        out += self.follow @ moves
         out[self.index] = np.where(self.mask, self.target, out[self.index])
         return out
 
@@ -205,18 +212,16 @@ class Held:
         """[M] how far each held joint of ``joints`` [J, 3] lies from its marker, on the axes it holds."""
         return np.linalg.norm(np.where(self.mask, np.asarray(joints)[self.index] - self.target, 0.0), axis=1)
 
-    def bounds(self, count: int) -> list[tuple[float | None, float | None]]:
-        """L-BFGS-B bounds of ``count`` joints' flattened coordinates: the held ones fixed at their markers."""
-        out: list[tuple[float | None, float | None]] = [(None, None)] * (3 * count)
-        for j, mask, target in zip(self.index, self.mask, self.target):
-            for axis in np.flatnonzero(mask):
-                out[3 * int(j) + int(axis)] = (float(target[axis]), float(target[axis]))
-        return out
+    @property
+    def whole(self) -> np.ndarray:
+        """[M] bool: the markers that hold all three coordinates of their joint."""
+        return self.mask.all(axis=1)
 
     def to_spheres(self, centers: np.ndarray) -> np.ndarray:
         """[M, S] distance of each held joint's marker from each sphere centre [S, 3], on the axes it holds."""
         diff = centers[None, :, :] - self.target[:, None, :]
         return np.linalg.norm(np.where(self.mask[:, None, :], diff, 0.0), axis=2)
+
 
 
 def held_joints(markers: dict[str, np.ndarray], template, to_canonical) -> Held:
@@ -232,40 +237,7 @@ def held_joints(markers: dict[str, np.ndarray], template, to_canonical) -> Held:
         index.append(list(template.names).index(marker.joint))
         mask.append(held)
         target.append(point + np.asarray(marker.offset) * held)
-    index = np.array(index, dtype=np.int64)
-    return Held(index, np.array(mask), np.array(target), tuple(names), _follow(template, index))
-
-
-FOLLOW = 0.1   # heights along the skeleton over which a joint's share of a held joint's move falls by e
-
-
-def _follow(template, index: np.ndarray) -> np.ndarray:
-    """[J, M] each joint's share of each held joint's move: exp(-d / FOLLOW) for d its distance from it along
-    the template's bones, shared between the held joints in proportion (0 for the held joints themselves), so
-    that a marked wrist takes its hand along and a marked hips its spine, and a joint far from every marker
-    stays where the rig put it."""
-    J = len(template.names)
-    parents = np.asarray(template.parents)
-    neighbours = [[] for _ in range(J)]
-    for j in range(J):
-        if parents[j] >= 0:
-            length = float(np.linalg.norm(template.positions[j] - template.positions[parents[j]]))
-            neighbours[j].append((int(parents[j]), length))
-            neighbours[int(parents[j])].append((j, length))
-    distance = np.full((J, len(index)), np.inf)
-    for m, start in enumerate(index):
-        distance[start, m] = 0.0
-        todo = [int(start)]
-        while todo:
-            j = todo.pop()
-            for k, length in neighbours[j]:
-                if distance[j, m] + length < distance[k, m]:
-                    distance[k, m] = distance[j, m] + length
-                    todo.append(k)
-    weight = np.exp(-distance / FOLLOW)
-    share = weight * (weight.max(axis=1, keepdims=True) / np.maximum(weight.sum(axis=1, keepdims=True), 1e-300))
-    share[index] = 0.0
-    return share
+    return Held(np.array(index, dtype=np.int64), np.array(mask), np.array(target), tuple(names))
 
 
 FRAME_MARGIN = 0.5   # the markers choose the axes left "auto" when the best frame fits at most half as badly
@@ -276,8 +248,9 @@ def marker_frame(markers: dict[str, np.ndarray], template, vertices: np.ndarray,
     """(up, front) with the axes left "auto" chosen by the markers when they tell: of the 24 frames (signed axes)
     that keep the given ones, those in which the markers' layout (centred, in heights of the mesh along its
     up) is nearest the template's joints' (each on the axes its marker holds), within twice the best fit; the
-    up they all share, and the front they all share, else the axes as given. Chin over knees tells up, a head before a tail base tells
-    front, and left-right pairs tell the front from the back."""
+    up they all share, and the front they all share, else the axes as given. Left-right pairs of markers, when
+    they all point one way (``left_axis``), keep only the frames whose left is that way: with the up given (or
+    found), they say the front. Chin over knees tells up, a head before a tail base tells the front."""
     from .input.mesh import frame_rotation
 
     if (up != "auto" and front != "auto") or len(markers) < 2:
@@ -290,12 +263,15 @@ def marker_frame(markers: dict[str, np.ndarray], template, vertices: np.ndarray,
     for i, n in enumerate(names):
         mask[i, list(marker_of(n).held)] = True
     extent = np.ptp(vertices, axis=0)
+    left = left_axis(markers)
     fits = []
     for u in ("x", "-x", "y", "-y", "z", "-z"):
         for f in ("x", "-x", "y", "-y", "z", "-z"):
             if u[-1] == f[-1] or (up != "auto" and u != up) or (front != "auto" and f != front):
                 continue
             rotation = frame_rotation(u, f)
+            if left is not None and not np.array_equal(rotation[0], left):
+                continue
             height = float(extent["xyz".index(u[-1])]) or 1.0
             canonical = points @ rotation.T / height
             cost = 0.0
@@ -307,9 +283,28 @@ def marker_frame(markers: dict[str, np.ndarray], template, vertices: np.ndarray,
                     cost += float(np.sum((a - b) ** 2))
             fits.append((cost, u, f))
     fits.sort()
+    if not fits:
+        return up, front
     close = [(u, f) for cost, u, f in fits if cost <= fits[0][0] / FRAME_MARGIN + 1e-9]
     return (close[0][0] if len({u for u, _ in close}) == 1 else up,
             close[0][1] if len({f for _, f in close}) == 1 else front)
+
+
+def left_axis(markers: dict[str, np.ndarray]) -> np.ndarray | None:
+    """The input axis [3] (a signed unit axis) the markers' left-right pairs say is the character's left: the
+    sum of their left-minus-right vectors, when it lies within 37 degrees of one axis; else None."""
+    total = np.zeros(3)
+    for name in markers:
+        other = mirror_name(name)
+        if other is not None and other in markers and "left" in name:
+            total += markers[name] - markers[other]
+    length = float(np.linalg.norm(total))
+    axis = int(np.argmax(np.abs(total)))
+    if length == 0.0 or abs(total[axis]) < 0.8 * length:
+        return None
+    out = np.zeros(3)
+    out[axis] = np.sign(total[axis])
+    return out
 
 
 def outside_distances(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -333,7 +328,10 @@ def mirror_name(name: str) -> str | None:
 
 
 def _point(value) -> np.ndarray | None:
-    if not isinstance(value, list) or len(value) != 3:
+    """[3] float64 of three finite numbers (a JSON list; a tuple or array from Python), else None."""
+    if isinstance(value, np.ndarray) and value.shape == (3,) and value.dtype.kind in "iuf":
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
         return None
     if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
         return None
@@ -342,7 +340,7 @@ def _point(value) -> np.ndarray | None:
 
 
 def _shown(value) -> str:
-    text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    text = json.dumps(value, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else repr(o))
     return text if len(text) <= 60 else text[:57] + "..."
 
 

@@ -114,12 +114,14 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         frame = detect_orientation(prepared, field, graph, template, up, front)
         prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
     held = _held(markers, template, prepared, vertices, faces, options)
-    keep = held.apply if held is not None else (lambda joints: joints)   # marked joints stay at their markers
+    # Marked joints are put at their markers once the joints are in the convention the markers are in (the
+    # rig's own, where the user sees them), and kept there by each stage after it (``autorig.markers``).
+    keep = held.apply if held is not None else (lambda joints: joints)
     embedding, joints = embed_and_refine(field, graph, template, stage, held=held)
     with stage("placement"):
         neck = neck_fraction(field) if (template.placement or {}).get("neck") is not None else None
-        joints = keep(learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field,
-                                        shift=convention_shift(template, convention), neck=neck))
+        joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field,
+                                   shift=convention_shift(template, convention), neck=neck)
     with stage("convention"):
         joints = keep(in_convention(joints, template, convention, field))
     if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
@@ -200,11 +202,10 @@ def _held(markers, template, prepared, vertices, faces, options):
 def _markers_info(held, joints, options, up, front) -> dict:
     """What a rig's ``info`` says of its markers: their names, how far (in heights) the farthest marked joint
     lies from its marker, and which axes the markers chose."""
+    chosen = [axis for axis, given, used in (("up", options.up, up), ("front", options.front, front))
+              if given != used]
     return {"markers": list(held.names), "marker_error": round(float(held.distances(joints).max()), 5),
-            **({"axes_from_markers": [a for a, given, used in (("up", options.up, up), ("front", options.front,
-                                                                                          front))
-                                      if given == "auto" and used != "auto"]}
-               if (options.up, options.front) != (up, front) else {})}
+            **({"axes_from_markers": chosen} if chosen else {})}
 
 
 def discretize(prepared, stage=None):
@@ -232,8 +233,8 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     discrete embedding, then every joint along its paths and refined, before the learned placement. Shared by
     ``rig`` and the learner's calibration rigs (``autorig.learn.calibrate``), which search with a smaller budget
     (``max_expansions``; None: the search's own). ``held``: the joints the user marked (``autorig.markers``),
-    which the embedding and refinement keep at their markers. Raises ``RigFailedError`` when the template
-    does not fit."""
+    which the embedding puts in the limbs of their markers. Raises ``RigFailedError`` when the template does
+    not fit."""
     from .embed import embed
     from .embed.refine import place_on_paths, refine
     from .readoff.tips import along_the_foot, surface_for
@@ -242,12 +243,8 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     with stage("embedding"):
         embedding = embed(graph, template, max_expansions, held)
     with stage("refinement"):
-        initial = place_on_paths(graph, embedding, template, surface_for(field))
-        if held is not None:
-            initial = held.apply(initial)
-        joints = along_the_foot(refine(field, initial, template, held=held), template)
-        if held is not None:
-            joints = held.apply(joints)
+        joints = along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
+                                       template), template)
     return embedding, joints
 
 

@@ -409,9 +409,13 @@ def input_files(path: Path, root: Path | None = None, allow_outside: bool = Fals
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     folder = path.parent.resolve()
     sidecar = markers_sidecar(path) if markers else None
-    if sidecar is not None:
+    if sidecar is not None:   # beside the mesh, and confined as the files a mesh names are
+        from ..markers import MARKERS_BYTES
+        if not allow_outside and folder not in sidecar.resolve().parents:
+            raise InputError(f"{sidecar}: a symlink leads outside the asset's folder (--allow-outside-paths to "
+                             f"allow)")
         try:
-            files[sidecar.name] = read_regular(sidecar, None)
+            files[sidecar.name] = read_regular(sidecar, MARKERS_BYTES)
         except OSError as e:
             raise InputError(f"{sidecar}: cannot read file ({e.strerror or e})") from None
 

@@ -36,8 +36,10 @@ from .common import (AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMAT
                    "clearly says otherwise).")
 @click.option("--markers", "markers_file", metavar="FILE",
               help="A JSON object of marker names to [x, y, z] points in the mesh's own coordinates: the joints "
-                   "they name are put there and the rest follows (see 'autorig templates' for each template's "
-                   "markers; any joint name works too).")
+                   "they name are put there and the rest follows. Biped, humanoid: chin, left_wrist, right_wrist, "
+                   "left_elbow, right_elbow, left_knee, right_knee, groin; quadruped, horse: front_left_paw, "
+                   "front_right_paw, back_left_paw, back_right_paw, head, tail_base, withers; any joint name "
+                   "of the template too.")
 @click.option("--strict", is_flag=True,
               help="Write nothing and exit with code 6 when the rig's confidence is below 0.5 (probably wrong); "
                    "not with --template auto, which has no confidence.")

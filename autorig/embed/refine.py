@@ -83,10 +83,8 @@ def _point_at(polyline: np.ndarray, arc: np.ndarray, s: float) -> np.ndarray:
     return polyline[i] + np.clip(t, 0.0, 1.0) * (polyline[i + 1] - polyline[i])
 
 
-def refine(field: DistanceField, initial: np.ndarray, template: Template, max_iterations: int = 200,
-           held=None) -> np.ndarray:
-    """[J, 3] joint positions after continuous optimisation, starting from ``initial`` [J, 3]; ``held`` (the
-    joints the user marked, ``autorig.markers.Held``) stay at their markers while the others move."""
+def refine(field: DistanceField, initial: np.ndarray, template: Template, max_iterations: int = 200) -> np.ndarray:
+    """[J, 3] joint positions after continuous optimisation, starting from ``initial`` [J, 3]."""
     from scipy.optimize import minimize
 
     J = len(template.names)
@@ -164,6 +162,5 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
         return float(total), grad.ravel()
 
     result = minimize(objective, initial.ravel(), jac=True, method="L-BFGS-B",
-                      options={"maxiter": max_iterations},
-                      **({"bounds": held.bounds(J)} if held is not None else {}))
+                      options={"maxiter": max_iterations})
     return result.x.reshape(J, 3)
