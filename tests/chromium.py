@@ -25,7 +25,7 @@ from pathlib import Path
 
 EXECUTABLE = shutil.which("chromium")
 # No network of any kind (the page must not need one), no first-run or background work, a fresh profile.
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--remote-debugging-pipe"]
 
@@ -94,8 +94,12 @@ class Chromium:
 
     def open(self, path: str | os.PathLike, query: str = "") -> None:
         """Load a file (with ``?query``) and wait for its load event."""
+        self.open_url(Path(path).resolve().as_uri() + (f"?{query}" if query else ""))
+
+    def open_url(self, url: str) -> None:
+        """Load a URL and wait for its load event."""
         self.events.clear()
-        self.command("Page.navigate", {"url": Path(path).resolve().as_uri() + (f"?{query}" if query else "")})
+        self.command("Page.navigate", {"url": url})
         self._wait_for("Page.loadEventFired")
         # Two frames: the first rendering is done, so that what is on screen is laid out (content-visibility:
         # auto leaves cards unrendered, their innerText empty, until the browser has seen where they are).
@@ -114,6 +118,34 @@ class Chromium:
         real input events)."""
         self.evaluate(f"(e => {{ e.focus(); e.select(); }})(document.querySelector({json.dumps(selector)}))")
         self.command("Input.insertText", {"text": text})
+
+    def click(self, x: float, y: float) -> None:
+        """A left click at (x, y) in the window's CSS pixels, as the mouse makes it (move, press, release)."""
+        for kind in ("mouseMoved", "mousePressed", "mouseReleased"):
+            self.command("Input.dispatchMouseEvent", {"type": kind, "x": x, "y": y, "button": "left",
+                                                      "buttons": 1 if kind == "mousePressed" else 0,
+                                                      "clickCount": 0 if kind == "mouseMoved" else 1})
+
+    def click_on(self, selector: str) -> None:
+        """Click the middle of the first element ``selector`` matches."""
+        x, y = self.evaluate(f"(b => [b.left + b.width / 2, b.top + b.height / 2])"
+                             f"(document.querySelector({json.dumps(selector)}).getBoundingClientRect())")
+        self.click(x, y)
+
+    def wait_until(self, expression: str, timeout: float | None = None):
+        """Poll a JavaScript expression until it is truthy; its value (``ChromiumError`` on timeout)."""
+        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+        while True:
+            value = self.evaluate(expression)
+            if value:
+                return value
+            if time.monotonic() > deadline:
+                raise ChromiumError(f"{expression!r} still false after {timeout or self.timeout:g} s")
+            time.sleep(0.05)
+
+    def download_into(self, folder: str | os.PathLike) -> None:
+        """Save the page's downloads into ``folder`` under the names the page gives them."""
+        self._send("Browser.setDownloadBehavior", {"behavior": "allow", "downloadPath": str(Path(folder).resolve())})
 
     def screenshot(self, path: str | os.PathLike) -> Path:
         """Save the whole page (beyond the window too) as a PNG."""

@@ -77,11 +77,16 @@ class Cards(HTMLParser):
         attrs = dict(attrs)
         if tag == "article":
             self.cards.append({**attrs, "links": [], "images": []})
+            self.in_card = True
         for key in ("src", "href", "action", "poster", "srcset"):
             if key in attrs:
                 self.urls.append(attrs[key])
-                if self.cards and key in ("src", "href"):
+                if getattr(self, "in_card", False) and key in ("src", "href"):
                     self.cards[-1]["images" if key == "src" else "links"].append(attrs[key])
+
+    def handle_endtag(self, tag):
+        if tag == "article":
+            self.in_card = False
 
 
 def test_reports_and_page_inside_the_output_folder_before_it_exists(batch):

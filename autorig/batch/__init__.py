@@ -153,7 +153,7 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                jobs: int | None = None, scheduler: str | None = None, force: bool = False,
                report: str | os.PathLike | None = None, junit: str | os.PathLike | None = None,
                html: str | os.PathLike | None = None, names: str = "template", fail_on_doubtful: bool = False,
-               on_start: Callable[[int, int], None] | None = None,
+               motion: str | os.PathLike | None = None, on_start: Callable[[int, int], None] | None = None,
                on_result: Callable[[AssetResult], None] | None = None) -> BatchResult:
     """Rig every mesh under ``input_dir`` into ``output_dir`` (see the module docstring).
 
@@ -175,6 +175,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
                        (needs Pillow), kept in ``output_dir/.autorig-thumbnails``
     names              the output's joint names, one of ``autorig.naming.NAME_SCHEMES`` (the engines' schemes:
                        biped and humanoid only; an asset with other joints fails)
+    motion             a BVH file the review page's 3D view can also play, retargeted onto each rig it drives
+                       (as ``autorig pose``); needs ``html``; read before any rigging
     fail_on_doubtful   the result's exit code is ``EXIT_DOUBTFUL`` (8) when no asset failed but some rig is
                        doubtful (``autorig.explain``: confidence below 0.5), and the JUnit report fails them
     on_start           called once before rigging with (assets to rig, assets skipped)
@@ -204,6 +206,12 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         html = html_setting(input_dir, output_dir, options.allow_outside_paths or skin_options.allow_outside_paths)
     if html is not None:
         require_thumbnails()
+    moves = None
+    if motion is not None:
+        from ..exchange.bvh import read_bvh
+        if html is None:
+            raise InputError("motion: the review page plays it; ask for the page too (--html)")
+        moves = read_bvh(motion)
     for path in (report, junit, html):
         if path is not None:
             check_writable(Path(path), output_dir)
@@ -284,11 +292,14 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         for path, write in ((report, write_json_report), (junit, write_junit_report), (html, _write_review)):
             if path is not None:
                 make_parent(Path(path), output_dir)
-                write(result, path)
+                if write is _write_review:
+                    write(result, path, moves, Path(motion).name if motion is not None else "motion")
+                else:
+                    write(result, path)
         return result
 
 
-def _write_review(result: BatchResult, path: str | os.PathLike) -> None:
+def _write_review(result: BatchResult, path: str | os.PathLike, motion=None, motion_name: str = "motion") -> None:
     """The review page, its module loaded only for a batch that asks for one."""
     from .review import write_review
-    write_review(result, path)
+    write_review(result, path, motion=motion, motion_name=motion_name)

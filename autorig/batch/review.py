@@ -3,13 +3,14 @@
     from autorig.batch.review import write_review
     write_review(rig_folder("assets/", "rigged/", html=None), "review.html")   # rig_folder(html=...) does this
 
-The page is one self-contained HTML file: its style, script and thumbnails (WebP, a few kilobytes per view,
-as data: URIs) are inside it, and its Content-Security-Policy forbids any fetch, so it opens the same from
-disk, from a CI artifact or offline. Only the links to the rigs point outside it (relative to the page).
+The page is one HTML file: its style, script and thumbnails (WebP, a few kilobytes per view, as data: URIs) are
+inside it, and its Content-Security-Policy allows nothing from the network, so it opens the same from disk, from
+a CI artifact or offline. Outside it are only the links to the rigs (relative to the page) and, for each rig's
+3D view (``autorig.show.viewer``), three.js beside the page and the rigs not inlined into it.
 
 Contents: a summary (assets by status, rigs below the low-confidence threshold, the batch's time); then one
 card per asset with the front and side thumbnails the workers drew (``AssetResult.thumbnails``), the name
-linked to the output, the template and axes, the confidence with its parts (weak parts marked), the stage
+linked to the output, the template and axes, a button opening the rig in the 3D view, the confidence with its parts (weak parts marked), the stage
 times (for a skipped asset, those of the run that rigged it) and a failure's one-line error. Cards come in
 review order: assets without a rig, then rigs below ``STRICT_THRESHOLD`` (lowest first), then the rest as
 the batch lists them. A filter box keeps the cards holding every word typed (name, template, status, error;
@@ -36,14 +37,20 @@ WEAK_PART = 0.8  # a confidence part below this is marked: it is what pulls the 
 SLOWEST_SHOWN = 3  # stages named on the card itself; the others are in its list of stage times
 
 
-def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRICT_THRESHOLD) -> None:
+def write_review(result: BatchResult, path: str | os.PathLike, low: float = STRICT_THRESHOLD, motion=None,
+                 motion_name: str = "motion") -> None:
     """Write the review page of ``result`` to ``path`` (atomically); links to the rigs are relative to it.
 
-    low  confidence below which a rig counts as doubtful (default: where ``--strict`` stops)
+    low     confidence below which a rig counts as doubtful (default: where ``--strict`` stops)
+    motion  a BVH ``Motion`` (``autorig.exchange.bvh``) the 3D view can also play, retargeted onto each rig it
+            drives, called ``motion_name`` on the page
     Raises ``OutputError`` if ``path`` cannot be written.
     """
     from ..exchange import write_file_atomic
-    page = review_page(result, Path(os.path.abspath(path)).parent, low)
+    from ..show.viewer import install_three
+    page_dir = Path(os.path.abspath(path)).parent
+    page = review_page(result, page_dir, low, motion, motion_name)
+    install_three(page_dir)
     write_file_atomic(path, page.encode("utf-8", "backslashreplace"))  # a file name's undecodable bytes
 
 
@@ -60,8 +67,11 @@ def review_order(assets: list[AssetResult], low: float = STRICT_THRESHOLD) -> li
     return [asset for _, asset in sorted(enumerate(assets), key=rank)]
 
 
-def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD) -> str:
-    """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there)."""
+def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHOLD, motion=None,
+                motion_name: str = "motion") -> str:
+    """The page's HTML; ``page_dir`` is the folder it will be in (the links to the rigs start there, and
+    ``write_review`` puts three.js there for the 3D view)."""
+    from ..show.viewer import THREE_FILE, VIEWER_STYLE, rig_views, viewer_markup
     from ..version import __version__
 
     assets = review_order(result.assets, low)
@@ -77,10 +87,14 @@ def review_page(result: BatchResult, page_dir: Path, low: float = STRICT_THRESHO
     notes = [f"{earlier_failed} of the skipped assets failed in the run that rigged them"] if earlier_failed else []
     notes.append(f"doubtful: confidence below {low:g}, probably wrong (look at its pictures); parts below "
                  f"{WEAK_PART:g} are marked")
-    cards = "\n".join(_card(a, rank, result.output_dir, page_dir, low) for rank, a in enumerate(assets))
+    views, blobs = rig_views(assets, result.output_dir, result.input_dir, page_dir, motion=motion,
+                             motion_name=motion_name)
+    cards = "\n".join(_card(a, rank, result.output_dir, page_dir, low, views[rank] is not None)
+                      for rank, a in enumerate(assets))
     title = f"autorig batch: {result.input_dir.name or result.input_dir}"
     return _PAGE.format(
-        title=html.escape(title), summary=summary, cards=cards, total=len(assets), style=_STYLE, script=_SCRIPT,
+        title=html.escape(title), summary=summary, cards=cards, total=len(assets), style=_STYLE + VIEWER_STYLE,
+        script=_SCRIPT, viewer=viewer_markup(views, blobs, THREE_FILE),
         notes=html.escape("; ".join(notes)), version=html.escape(__version__),
         input=html.escape(str(result.input_dir)), output=html.escape(str(result.output_dir)))
 
@@ -89,7 +103,7 @@ def _is_low(asset: AssetResult, low: float) -> bool:
     return not asset.failed and asset.confidence is not None and asset.confidence < low
 
 
-def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: float) -> str:
+def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: float, viewable: bool) -> str:
     e = html.escape
     if asset.failed:
         kind, badge = "failed", "failed" + (" earlier" if asset.status == "skipped" else "")
@@ -110,6 +124,9 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     axes = (f" · up {asset.up} · front {asset.front}" if asset.up else "") + (
         f" · markers {PurePosixPath(asset.markers).name}" if asset.markers else "")
     lines = [f'<p class="what">{e(asset.template + axes)}</p>']
+    if viewable:
+        from ..show.viewer import viewer_button
+        lines.append(viewer_button(rank))
     if asset.confidence is not None:
         parts = " ".join(f'<span class="part{" weak" if value < WEAK_PART else ""}">{e(part)} {value:.2f}</span>'
                          for part, value in asset.confidence_parts.items())
@@ -161,10 +178,11 @@ def _seconds(value: float) -> str:
     return f"{value:.1f} s" if value < 600 else f"{value / 60:.1f} min"
 
 
-# Every fetch is refused (default-src 'none'); only the inline style, the inline script and data: images run.
+# Nothing from the network (default-src 'none'): the inline style and scripts, data: images, and beside the page
+# only three.js's script and the rigs (read over http; blob: and data: for a rig's own embedded pictures).
 _PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
-<meta http-equiv="Content-Security-Policy" content="default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'">
+<meta http-equiv="Content-Security-Policy" content="default-src 'none'; img-src data: blob:; style-src 'unsafe-inline'; script-src 'unsafe-inline' 'self' file:; connect-src 'self' blob: data:">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>{title}</title><style>{style}</style></head>
 <body><header><h1>{title}</h1><p class="paths">{input} &rarr; {output} · autorig {version}</p>
@@ -176,7 +194,8 @@ _PAGE = """<!doctype html>
 </select></label> <span id="shown">{total} of {total}</span></div></header>
 <main id="cards">
 {cards}
-</main><script>{script}</script></body></html>
+</main><script>{script}</script>
+{viewer}</body></html>
 """
 
 _STYLE = """

@@ -48,9 +48,14 @@ BATCH_EXTENSIONS = "obj,off,ply,stl,glb,gltf"
 @click.option("--junit", metavar="PATH", help="Write a JUnit XML report here (one test case per asset).")
 @click.option("--html", metavar="PATH",
               help="Write a page to review the batch by eye here: every rig's front and side thumbnails, doubtful "
-                   "ones first (one offline file; needs Pillow: pip install 'autorig[preview]'). Also: "
+                   "ones first, and a 3D view of each (turn it, see it move, its weights, place markers and download "
+                   "STEM.markers.json to put beside the asset); offline, three.js beside it; needs Pillow: pip "
+                   "install 'autorig[preview]'. Also: "
                    "html = \"PATH\" in INPUT_DIR's "
                    "autorig.toml, relative to OUTPUT_DIR.")
+@click.option("--motion", metavar="BVH",
+              help="With --html: the 3D view can also play this motion, retargeted onto each rig it drives by "
+                   "joint names (as autorig pose), in place.")
 @click.option("--names", type=click.Choice(NAME_SCHEMES), default="template", show_default=True,
               help=NAMES_HELP)
 @click.option("--fingers", is_flag=True, help=FINGERS_HELP)
@@ -64,7 +69,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                   skeleton_scale: str | None, convention: str | None, up: str, front: str, voxels: int,
                   max_segments: int, fmt: str,
                   ext: str, jobs: int | None, scheduler: str | None, force: bool, report: str | None,
-                  junit: str | None, html: str | None, names: str, fingers: bool, fail_on_doubtful: bool, quiet: bool,
+                  junit: str | None, html: str | None, motion: str | None, names: str, fingers: bool, fail_on_doubtful: bool, quiet: bool,
                   max_faces: int,
                   allow_outside_paths: bool):
     """Rig every mesh under INPUT_DIR (recursively) into OUTPUT_DIR, in parallel.
@@ -113,7 +118,7 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
                                        convention=convention, fingers=fingers, **limits),
                             skeleton=skeleton_file, skin_options=SkinOptions(scale=scale, **limits), fmt=fmt,
                             extensions=extensions, jobs=jobs, scheduler=scheduler, force=force, report=report,
-                            junit=junit, html=html, names=names, fail_on_doubtful=fail_on_doubtful,
+                            junit=junit, html=html, names=names, fail_on_doubtful=fail_on_doubtful, motion=motion,
                             on_start=progress.on_start,
                             on_result=progress.on_result)
     finally:
