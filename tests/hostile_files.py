@@ -305,6 +305,17 @@ def _random_joints(folder):
     return path
 
 
+def _soup_with_random_joints(folder: Path):
+    """A 2,000-triangle soup weighted for 1,000 random joints: the bone heat's planning alone ran 132 s."""
+    _soup(2000, 1000, seed=3)(folder)
+    rng = np.random.default_rng(4)
+    joints = [{"name": "j0", "parent": None, "position": [0.5, 0.5, 0.5]}]
+    joints += [{"name": f"j{i}", "parent": f"j{int(rng.integers(0, i))}", "position": rng.random(3).tolist()}
+               for i in range(1, 1000)]
+    (folder / "skeleton.json").write_text(json.dumps({"joints": joints}))
+    return _rig(folder / "soup.obj", "--skeleton", str(folder / "skeleton.json")), {0, 5}
+
+
 def _nested_skeleton(folder):
     path = folder / "skeleton.json"
     path.write_text('{"joints": ' + "[" * 100_000 + "]" * 100_000 + "}")
@@ -364,6 +375,7 @@ FAMILIES = {
     "skeleton-10000-random": _skeleton_family(_random_joints),
     "skeleton-nested-json": _skeleton_family(_nested_skeleton),
     "skeleton-gltf-flat-30000": _skeleton_family(_flat_gltf_skeleton),
+    "skeleton-1000-in-soup": _soup_with_random_joints,
 }
 
 # Families that need root (mknod of a character device).
