@@ -86,7 +86,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .embed.placement import learned_placement
     from .readoff.rest_pose import rest_pose
     from .template import AUTO, Template, load_template
-    from .input.budget import HEAT_SECONDS, SEARCH_SECONDS, budget
+    from .input.budget import SEARCH_SECONDS, budget, heat_seconds
 
     options = options or RigOptions()
     timings: dict[str, float] = {}
@@ -129,7 +129,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         with stage("hands"):
             fingers = read_fingers(prepared.vertices, prepared.faces, template.names, joints)
             joints = fingers.moved_joints(template.names, joints)   # an arm short of its hand ends at it
-    with stage("skin weights"), budget("the bone heat", HEAT_SECONDS):
+    with stage("skin weights"), budget("the bone heat", heat_seconds(len(faces))):
         surface = heat_surface.result_for(prepared)
         height = float(np.ptp(prepared.work_vertices[:, 1]))     # the canonical frame stands on y
         # the head's bone heats from the base of the skull, wherever the head joint (its pivot) is
@@ -235,7 +235,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     """
     from .weights.attach import bone_heat
     from .weights.bones import fit_to_mesh, plan_heat
-    from .input.budget import HEAT_SECONDS, budget
+    from .input.budget import budget, heat_seconds
     from .exchange.skeleton import Skeleton, read_skeleton
     from .input.mesh import prepare
 
@@ -257,7 +257,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
         scale = options.scale if options.scale is not None else ("auto" if skeleton.kind == "bvh" else 1.0)
         positions, tips, factor = fit_to_mesh(skeleton.positions, skeleton.tips, vertices[np.unique(faces)],
                                               scale)
-    with budget("the bone heat", HEAT_SECONDS):        # planning the bones and solving their heat
+    with budget("the bone heat", heat_seconds(len(faces))):        # planning the bones and solving their heat
         with stage("bones"):
             plan = plan_heat(prepared.work_vertices, prepared.work_faces, skeleton.names,
                              prepared.to_canonical(positions), skeleton.parents, prepared.to_canonical(tips))
@@ -285,7 +285,7 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
     """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
     from .weights.attach import bone_heat
-    from .input.budget import HEAT_SECONDS, budget
+    from .input.budget import budget, heat_seconds
     from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
                           medial_surface, path_tree, skeleton_confidence, skeleton_reasons, voxelize)
     from .input.mesh import prepare
@@ -306,7 +306,7 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
         tree = path_tree(medial)
     with stage("control skeleton"):
         joints, template = control_skeleton(tree, grid, options.max_segments)
-    with stage("skin weights"), budget("the bone heat", HEAT_SECONDS):
+    with stage("skin weights"), budget("the bone heat", heat_seconds(len(faces))):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
         confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints,

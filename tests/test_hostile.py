@@ -232,7 +232,7 @@ def test_budgets_end_the_rig_with_exit_5_naming_the_stage(tmp_path, monkeypatch)
     args = _soup_and_skeleton(tmp_path / "heat", 60)
     assert CliRunner().invoke(cli, args, prog_name="autorig").exit_code == 0   # within the real budgets
     (tmp_path / "heat" / "out.glb").unlink()
-    for patch, words in (((budget, "HEAT_SECONDS", 0.0), "the bone heat took more than its 0 s of CPU"),
+    for patch, words in (((budget, "heat_seconds", lambda faces: 0.0), "the bone heat took more than its 0 s of CPU"),
                          ((attach, "HEAT_BYTES", 1 << 10), "the bone heat would need")):
         with monkeypatch.context() as m:
             m.setattr(*patch)

@@ -27,13 +27,21 @@ SEARCH_SECONDS = 10.0
 # Partial embeddings the search may hold in its queue at once (~250 bytes each: ~1 GB). Those characters
 # reach at most ~35,000 (a MakeHuman biped with the quadruped template).
 SEARCH_QUEUE = 4_000_000
-# CPU seconds of planning the bones (``--skeleton``) and solving their heat. The rigged and corpus characters
-# with their own skeletons need at most ~2.2 s of wall time at load 8 (53 joints on a MakeHuman); a 1,000-joint
-# skeleton of random joints in a 2,000-triangle soup took 157 s (132 s planning which bones heat).
+# CPU seconds of planning the bones (``--skeleton``) and solving their heat, plus as many per million input faces
+# (``heat_seconds``). The rigged and corpus characters with their own skeletons need at most ~2.2 s of wall
+# time at load 8 (53 joints on a MakeHuman); CesiumMan subdivided to 1M faces with its skeleton, 26 s of CPU
+# for the whole run (its bones' plan is the long part); a 1,000-joint skeleton of random joints in a
+# 2,000-triangle soup took 157 s (132 s planning which bones heat).
 HEAT_SECONDS = 10.0
+HEAT_SECONDS_PER_MILLION_FACES = 60.0
 # Memory of the skin weights' dense arrays (vertices x bones, a few of them at once): the 1M-face mannequin's
 # are ~0.5 GB.
 HEAT_BYTES = 6 << 30
+
+
+def heat_seconds(faces: int) -> float:
+    """The bone heat's budget in CPU seconds for a mesh of ``faces`` input triangles."""
+    return HEAT_SECONDS + HEAT_SECONDS_PER_MILLION_FACES * faces / 1e6
 
 
 class OverBudget(RigFailedError):
@@ -69,7 +77,7 @@ def checkpoint() -> None:
     now = time.process_time()
     for spent in active:
         if now > spent.end:
-            raise OverBudget(f"could not rig: {spent.stage} took more than its {spent.seconds:g} s of CPU (a "
+            raise OverBudget(f"could not rig: {spent.stage} took more than its {spent.seconds:.3g} s of CPU (a "
                              f"character needs a few at most): the shape or skeleton is not one this stage "
                              f"can resolve")
 
