@@ -153,6 +153,11 @@ def _scale_overflow(d, folder):
     d["nodes"][0]["scale"] = [1e308, 1e308, 1e308]
 
 
+def _offset_2e63(d, folder):
+    """An empty accessor at an offset no integer of the machine holds (found by tests/test_fuzz_hostile.py)."""
+    d["accessors"][0].update(count=0, byteOffset=2**63)
+
+
 def _nan_positions(d, folder):
     V, F = _box()
     V[5] = np.nan
@@ -316,6 +321,14 @@ def _soup_with_random_joints(folder: Path):
     return _rig(folder / "soup.obj", "--skeleton", str(folder / "skeleton.json")), {0, 5}
 
 
+def _position_1e400(folder):
+    """A joint at an integer too large for a float (found by tests/test_fuzz_hostile.py)."""
+    path = folder / "skeleton.json"
+    path.write_text(json.dumps({"joints": [{"name": "a", "parent": None, "position": [10**400, 0, 0]},
+                                           {"name": "b", "parent": "a", "position": [0, 1, 0]}]}))
+    return path
+
+
 def _nested_skeleton(folder):
     path = folder / "skeleton.json"
     path.write_text('{"joints": ' + "[" * 100_000 + "]" * 100_000 + "}")
@@ -351,6 +364,7 @@ FAMILIES = {
     "gltf-no-view-1e8": _gltf_family(_no_view),
     "gltf-chain-100000": _gltf_family(_node_chain(100_000), exits={0, 5}),
     "gltf-scale-overflow": _gltf_family(_scale_overflow),
+    "gltf-offset-2e63": _gltf_family(_offset_2e63),
     "gltf-nan-position": _gltf_family(_nan_positions),
     "gltf-image-uri-int": _gltf_family(_image_uri_int, exits={0, 5}),
     "gltf-300-images": _gltf_family(_images_300, exits={0, 5}),
@@ -374,6 +388,7 @@ FAMILIES = {
     # skeletons
     "skeleton-10000-random": _skeleton_family(_random_joints),
     "skeleton-nested-json": _skeleton_family(_nested_skeleton),
+    "skeleton-position-1e400": _skeleton_family(_position_1e400),
     "skeleton-gltf-flat-30000": _skeleton_family(_flat_gltf_skeleton),
     "skeleton-1000-in-soup": _soup_with_random_joints,
 }

@@ -81,7 +81,8 @@ SKELETON = json.dumps({"joints": [{"name": "hips", "parent": None, "position": [
 SKIN = ["--skeleton", "skeleton.json"]      # a quick rig (no embedding): the input's handling is what is tested
 
 # Values of every JSON kind, the hostile ones among them.
-BIG = [0, -1, 1, 2, 3, 4, 12, 255, 65535, 2**31 - 1, 2**31, 2**32, 2**53 + 1, 2**63, 2**64, 10**20, 10**300]
+BIG = [0, -1, 1, 2, 3, 4, 12, 255, 65535, 2**31 - 1, 2**31, 2**32, 2**53 + 1, 2**63, 2**64, 10**20, 10**300,
+       10**400]   # the last too large for a float
 NAMES = st.text(st.characters(max_codepoint=0x2FF, blacklist_categories=("Cs",)), max_size=12) | st.sampled_from(
     ["\x1b[2J\x1b[H", "a\0b", "\udce9".encode("utf-8", "surrogatepass").decode("utf-8", "replace"), "..", "/",
      "../../../../etc/passwd", "/etc/passwd", "/dev/zero", "file:///etc/passwd", "http://example.com/x",
@@ -182,7 +183,7 @@ def gltf_nodes(draw):
     d, _ = _box_files()
     length = draw(st.sampled_from([1, 2, 50, 5_000]))
     nodes = [{"children": [i + 1], "name": draw(NAMES)} for i in range(length - 1)] + [{"mesh": 0}]
-    number = st.sampled_from([0.0, 1.0, -1.0, 1e-300, 1e30, 1e308, -1e308, float("nan"), float("inf")])
+    number = st.sampled_from([0.0, 1.0, -1.0, 1e-300, 1e30, 1e308, -1e308, float("nan"), float("inf"), 10**400])
     for _ in range(draw(st.integers(1, 3))):
         node = nodes[draw(st.integers(0, length - 1))]
         change = draw(st.integers(0, 5))
@@ -301,7 +302,10 @@ def soup(draw):
 
 @st.composite
 def skeleton_json(draw):
-    """A ``--skeleton`` file of random joints: counts, hierarchies (unknown, cyclic, repeated), numbers."""
+    """A ``--skeleton`` file of random joints: counts, hierarchies (unknown, cyclic, repeated), numbers, nesting."""
+    if draw(st.integers(0, 9)) == 0:
+        depth = draw(st.sampled_from([10, 5_000, 100_000]))
+        return ('{"joints": ' + "[" * depth + "]" * depth + "}").encode()
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     count = draw(st.sampled_from([1, 2, 5, 40, 120, 1_001]))
     joints = [{"name": f"j{i}", "parent": f"j{int(rng.integers(0, i))}" if i else None,
@@ -310,7 +314,7 @@ def skeleton_json(draw):
         joint = joints[draw(st.integers(0, count - 1))]
         change = draw(st.integers(0, 3))
         if change == 0:
-            joint["position"] = [draw(st.sampled_from([0.0, 1e308, -1e308, float("nan"), float("inf")]))
+            joint["position"] = [draw(st.sampled_from([0.0, 1e308, -1e308, float("nan"), float("inf"), 10**400]))
                                  for _ in range(3)]
         elif change == 1:
             joint["parent"] = draw(st.sampled_from([joint["name"], "nobody", None, 5, "j0"]))
