@@ -385,6 +385,7 @@ FAMILIES = {
     "soup-600": _soup(600, 300),
     "soup-100": _soup(100, 300, seed=1),
     "soup-2000": _soup(2000, 1000, seed=2),
+    "soup-25-sphere-cap": _soup(25, 70, seed=5),      # 1,910 spheres: the orientation's frames at the cap
     # skeletons
     "skeleton-10000-random": _skeleton_family(_random_joints),
     "skeleton-nested-json": _skeleton_family(_nested_skeleton),
