@@ -257,6 +257,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
         scale = options.scale if options.scale is not None else ("auto" if skeleton.kind == "bvh" else 1.0)
         positions, tips, factor = fit_to_mesh(skeleton.positions, skeleton.tips, vertices[np.unique(faces)],
                                               scale)
+        _check_reach(prepared, np.vstack([positions, tips]), list(skeleton.names) * 2)
     with budget("the bone heat", heat_seconds(len(faces))):        # planning the bones and solving their heat
         with stage("bones"):
             plan = plan_heat(prepared.work_vertices, prepared.work_faces, skeleton.names,
@@ -279,6 +280,25 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
                              for reason, children in (("outside", plan.outside), ("along_other_bones", plan.doubled),
                                                       ("zero_length", plan.zero_length)) if children},
               "all_bones_heat": plan.fallback, **dropped_info(look)})
+
+
+# A joint farther than this many mesh sizes from the mesh is refused: the heat's squared distances would
+# overflow long before (a joint at 1e308 gave NaN weights), and no skeleton in other units is that far off.
+MAX_REACH = 1e6
+
+
+def _check_reach(prepared, points, names: list[str]) -> None:
+    """SkeletonError if a joint or tip (``points`` [N, 3], NaN for tips not given) lies more than ``MAX_REACH``
+    mesh sizes away in the mesh's canonical frame (its longest side 1), or beyond what a float holds."""
+    from .errors import SkeletonError
+    given = ~np.isnan(points).any(axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = np.abs(prepared.to_canonical(points[given])).max(axis=1, initial=0.0)
+    far = ~(reach <= MAX_REACH)
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        raise SkeletonError(f"skeleton: joint {names[int(np.flatnonzero(given)[k])]!r} lies {reach[k]:.3g} mesh "
+                            f"sizes from the mesh (more than {MAX_REACH:.0e}): in other units? (--skeleton-scale)")
 
 
 def _rig_without_template(vertices, faces, name: str, look, options: RigOptions, stage, timings) -> Rig:

@@ -253,6 +253,13 @@ def _huge_index(obj, folder, n):
     return obj + "f 1 2 99999999999999999999999\n"
 
 
+def _blank_vertex(obj, folder, n):
+    """A "v" line without numbers before the vertices, with a material: the look counted it, the mesh did not
+    (found by tests/test_fuzz_hostile.py)."""
+    (folder / "m.mtl").write_text("newmtl skin\nKd 0.8 0.6 0.5\n")
+    return "mtllib m.mtl\nusemtl skin\nv   \n" + obj
+
+
 def _nan_vertex(obj, folder, n):
     return "v nan 0 0\n" + obj.replace("f ", "f ", 1)
 
@@ -329,6 +336,14 @@ def _position_1e400(folder):
     return path
 
 
+def _position_1e308(folder):
+    """A joint at 1e308, finite but beyond what squared distances hold (found by tests/test_fuzz_hostile.py)."""
+    path = folder / "skeleton.json"
+    path.write_text(json.dumps({"joints": [{"name": "a", "parent": None, "position": [0, 0, 1e308]},
+                                           {"name": "b", "parent": "a", "position": [0, 1, 0]}]}))
+    return path
+
+
 def _nested_skeleton(folder):
     path = folder / "skeleton.json"
     path.write_text('{"joints": ' + "[" * 100_000 + "]" * 100_000 + "}")
@@ -379,6 +394,7 @@ FAMILIES = {
     "obj-face-1e6-corners": _obj_family(_big_face),
     "obj-huge-index": _obj_family(_huge_index),
     "obj-nan-vertex": _obj_family(_nan_vertex),
+    "obj-blank-vertex": _obj_family(_blank_vertex),
     "off-face-1e6-corners": _off_family(_off_big_face),
     "off-huge-index": _off_family(_off_huge_index),
     # pathological shapes
@@ -390,6 +406,7 @@ FAMILIES = {
     "skeleton-10000-random": _skeleton_family(_random_joints),
     "skeleton-nested-json": _skeleton_family(_nested_skeleton),
     "skeleton-position-1e400": _skeleton_family(_position_1e400),
+    "skeleton-position-1e308": _skeleton_family(_position_1e308),
     "skeleton-gltf-flat-30000": _skeleton_family(_flat_gltf_skeleton),
     "skeleton-1000-in-soup": _soup_with_random_joints,
 }
