@@ -90,6 +90,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .embed.placement import learned_placement
     from .readoff.rest_pose import rest_pose
     from .template import AUTO, Template, load_template
+    from .input.budget import SEARCH_SECONDS, budget, heat_seconds
 
     options = options or RigOptions()
     timings: dict[str, float] = {}
@@ -110,14 +111,15 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True)
         heat_surface = start_heat_surface(prepared)   # a dense mesh's heat surface, made beside the skeleton
     field, graph = discretize(prepared, stage)
-    with stage("orientation"):
-        frame = detect_orientation(prepared, field, graph, template, up, front)
-        prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
-    held = _held(markers, template, prepared, vertices, faces, options)
-    # Marked joints are put at their markers once the joints are in the convention the markers are in (the
-    # rig's own, where the user sees them), and kept there by each stage after it (``autorig.markers``).
-    keep = held.apply if held is not None else (lambda joints: joints)
-    embedding, joints = embed_and_refine(field, graph, template, stage, held=held)
+    with budget("the embedding's search", SEARCH_SECONDS):   # the orientation's searches and the embedding's
+        with stage("orientation"):
+            frame = detect_orientation(prepared, field, graph, template, up, front)
+            prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
+        held = _held(markers, template, prepared, vertices, faces, options)
+        # Marked joints are put at their markers once the joints are in the convention the markers are in (the
+        # rig's own, where the user sees them), and kept there by each stage after it (``autorig.markers``).
+        keep = held.apply if held is not None else (lambda joints: joints)
+        embedding, joints = embed_and_refine(field, graph, template, stage, held=held)
     with stage("placement"):
         neck = neck_fraction(field) if (template.placement or {}).get("neck") is not None else None
         joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field,
@@ -140,7 +142,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         with stage("hands"):
             fingers = read_fingers(prepared.vertices, prepared.faces, template.names, joints)
             joints = keep(fingers.moved_joints(template.names, joints))   # an arm short of its hand ends at it
-    with stage("skin weights"):
+    with stage("skin weights"), budget("the bone heat", heat_seconds(len(faces))):
         surface = heat_surface.result_for(prepared)
         height = float(np.ptp(prepared.work_vertices[:, 1]))     # the canonical frame stands on y
         # the head's bone heats from the base of the skull, wherever the head joint (its pivot) is
@@ -281,6 +283,7 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
     """
     from .weights.attach import bone_heat
     from .weights.bones import fit_to_mesh, plan_heat
+    from .input.budget import budget, heat_seconds
     from .exchange.skeleton import Skeleton, read_skeleton
     from .input.mesh import prepare
 
@@ -302,13 +305,16 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
         scale = options.scale if options.scale is not None else ("auto" if skeleton.kind == "bvh" else 1.0)
         positions, tips, factor = fit_to_mesh(skeleton.positions, skeleton.tips, vertices[np.unique(faces)],
                                               scale)
-    with stage("bones"):
-        plan = plan_heat(prepared.work_vertices, prepared.work_faces, skeleton.names,
-                         prepared.to_canonical(positions), skeleton.parents, prepared.to_canonical(tips))
-    with stage("skin weights"):
-        J = len(skeleton.names)
-        # Tip joints are virtual: their bones' heat goes to the leaves (plan.owners), so their columns are empty.
-        weights = bone_heat(prepared.vertices, prepared.faces, plan.joints, plan.parents, owners=plan.owners)[:, :J]
+        _check_reach(prepared, np.vstack([positions, tips]), list(skeleton.names) * 2)
+    with budget("the bone heat", heat_seconds(len(faces))):        # planning the bones and solving their heat
+        with stage("bones"):
+            plan = plan_heat(prepared.work_vertices, prepared.work_faces, skeleton.names,
+                             prepared.to_canonical(positions), skeleton.parents, prepared.to_canonical(tips))
+        with stage("skin weights"):
+            J = len(skeleton.names)
+            # Tip joints are virtual: their bones' heat goes to the leaves (plan.owners): empty columns.
+            weights = bone_heat(prepared.vertices, prepared.faces, plan.joints, plan.parents,
+                                owners=plan.owners)[:, :J]
 
     carrying = weights.max(axis=0) > 0
     return Rig(
@@ -324,10 +330,30 @@ def skin(mesh, skeleton, options: SkinOptions | None = None) -> Rig:
               "all_bones_heat": plan.fallback, **dropped_info(look)})
 
 
+# A joint farther than this many mesh sizes from the mesh is refused: the heat's squared distances would
+# overflow long before (a joint at 1e308 gave NaN weights), and no skeleton in other units is that far off.
+MAX_REACH = 1e6
+
+
+def _check_reach(prepared, points, names: list[str]) -> None:
+    """SkeletonError if a joint or tip (``points`` [N, 3], NaN for tips not given) lies more than ``MAX_REACH``
+    mesh sizes away in the mesh's canonical frame (its longest side 1), or beyond what a float holds."""
+    from .errors import SkeletonError
+    given = ~np.isnan(points).any(axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = np.abs(prepared.to_canonical(points[given])).max(axis=1, initial=0.0)
+    far = ~(reach <= MAX_REACH)
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        raise SkeletonError(f"skeleton: joint {names[int(np.flatnonzero(given)[k])]!r} lies {reach[k]:.3g} mesh "
+                            f"sizes from the mesh (more than {MAX_REACH:.0e}): in other units? (--skeleton-scale)")
+
+
 def _rig_without_template(vertices, faces, name: str, look, options: RigOptions, stage, timings) -> Rig:
     """Template "auto": a skeleton extracted from the shape (Wade & Parent 2002, ``autorig.extract``), then the
     same skin weights. The extraction does not depend on the axes, so axes left "auto" are not detected."""
     from .weights.attach import bone_heat
+    from .input.budget import budget, heat_seconds
     from .extract import (connected_medial, control_skeleton, distance_map, fixed_axes, inside_graph,
                           medial_surface, path_tree, skeleton_confidence, skeleton_reasons, voxelize)
     from .input.mesh import prepare
@@ -348,7 +374,7 @@ def _rig_without_template(vertices, faces, name: str, look, options: RigOptions,
         tree = path_tree(medial)
     with stage("control skeleton"):
         joints, template = control_skeleton(tree, grid, options.max_segments)
-    with stage("skin weights"):
+    with stage("skin weights"), budget("the bone heat", heat_seconds(len(faces))):
         weights = bone_heat(prepared.vertices, prepared.faces, joints, template.parents)
     with stage("confidence"):
         confidence, parts = skeleton_confidence(prepared.work_vertices, prepared.work_faces, joints,

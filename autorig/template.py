@@ -301,7 +301,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         pos = j.get("position")
         try:
             pos = [float(x) for x in pos]
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise bad(f"joint {j['name']!r}: position must be three numbers") from None
         if len(pos) != 3 or not np.all(np.isfinite(pos)):
             raise bad(f"joint {j['name']!r}: position must be three finite numbers")
@@ -360,7 +360,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
             raise bad(f"helper #{k} needs a name and the name of a template joint as its parent")
         try:
             offset = tuple(float(v) for v in h.get("offset"))
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             offset = ()
         if len(offset) != 3 or not np.all(np.isfinite(offset)):
             raise bad(f"helper {h['name']!r}: offset must be three finite numbers")

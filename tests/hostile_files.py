@@ -153,6 +153,11 @@ def _scale_overflow(d, folder):
     d["nodes"][0]["scale"] = [1e308, 1e308, 1e308]
 
 
+def _offset_2e63(d, folder):
+    """An empty accessor at an offset no integer of the machine holds (found by tests/test_fuzz_hostile.py)."""
+    d["accessors"][0].update(count=0, byteOffset=2**63)
+
+
 def _nan_positions(d, folder):
     V, F = _box()
     V[5] = np.nan
@@ -248,6 +253,13 @@ def _huge_index(obj, folder, n):
     return obj + "f 1 2 99999999999999999999999\n"
 
 
+def _blank_vertex(obj, folder, n):
+    """A "v" line without numbers before the vertices, with a material: the look counted it, the mesh did not
+    (found by tests/test_fuzz_hostile.py)."""
+    (folder / "m.mtl").write_text("newmtl skin\nKd 0.8 0.6 0.5\n")
+    return "mtllib m.mtl\nusemtl skin\nv   \n" + obj
+
+
 def _nan_vertex(obj, folder, n):
     return "v nan 0 0\n" + obj.replace("f ", "f ", 1)
 
@@ -305,6 +317,33 @@ def _random_joints(folder):
     return path
 
 
+def _soup_with_random_joints(folder: Path):
+    """A 2,000-triangle soup weighted for 1,000 random joints: the bone heat's planning alone ran 132 s."""
+    _soup(2000, 1000, seed=3)(folder)
+    rng = np.random.default_rng(4)
+    joints = [{"name": "j0", "parent": None, "position": [0.5, 0.5, 0.5]}]
+    joints += [{"name": f"j{i}", "parent": f"j{int(rng.integers(0, i))}", "position": rng.random(3).tolist()}
+               for i in range(1, 1000)]
+    (folder / "skeleton.json").write_text(json.dumps({"joints": joints}))
+    return _rig(folder / "soup.obj", "--skeleton", str(folder / "skeleton.json")), {0, 5}
+
+
+def _position_1e400(folder):
+    """A joint at an integer too large for a float (found by tests/test_fuzz_hostile.py)."""
+    path = folder / "skeleton.json"
+    path.write_text(json.dumps({"joints": [{"name": "a", "parent": None, "position": [10**400, 0, 0]},
+                                           {"name": "b", "parent": "a", "position": [0, 1, 0]}]}))
+    return path
+
+
+def _position_1e308(folder):
+    """A joint at 1e308, finite but beyond what squared distances hold (found by tests/test_fuzz_hostile.py)."""
+    path = folder / "skeleton.json"
+    path.write_text(json.dumps({"joints": [{"name": "a", "parent": None, "position": [0, 0, 1e308]},
+                                           {"name": "b", "parent": "a", "position": [0, 1, 0]}]}))
+    return path
+
+
 def _nested_skeleton(folder):
     path = folder / "skeleton.json"
     path.write_text('{"joints": ' + "[" * 100_000 + "]" * 100_000 + "}")
@@ -340,6 +379,7 @@ FAMILIES = {
     "gltf-no-view-1e8": _gltf_family(_no_view),
     "gltf-chain-100000": _gltf_family(_node_chain(100_000), exits={0, 5}),
     "gltf-scale-overflow": _gltf_family(_scale_overflow),
+    "gltf-offset-2e63": _gltf_family(_offset_2e63),
     "gltf-nan-position": _gltf_family(_nan_positions),
     "gltf-image-uri-int": _gltf_family(_image_uri_int, exits={0, 5}),
     "gltf-300-images": _gltf_family(_images_300, exits={0, 5}),
@@ -354,16 +394,21 @@ FAMILIES = {
     "obj-face-1e6-corners": _obj_family(_big_face),
     "obj-huge-index": _obj_family(_huge_index),
     "obj-nan-vertex": _obj_family(_nan_vertex),
+    "obj-blank-vertex": _obj_family(_blank_vertex),
     "off-face-1e6-corners": _off_family(_off_big_face),
     "off-huge-index": _off_family(_off_huge_index),
     # pathological shapes
     "soup-600": _soup(600, 300),
     "soup-100": _soup(100, 300, seed=1),
     "soup-2000": _soup(2000, 1000, seed=2),
+    "soup-25-sphere-cap": _soup(25, 70, seed=5),      # 1,910 spheres: the orientation's frames at the cap
     # skeletons
     "skeleton-10000-random": _skeleton_family(_random_joints),
     "skeleton-nested-json": _skeleton_family(_nested_skeleton),
+    "skeleton-position-1e400": _skeleton_family(_position_1e400),
+    "skeleton-position-1e308": _skeleton_family(_position_1e308),
     "skeleton-gltf-flat-30000": _skeleton_family(_flat_gltf_skeleton),
+    "skeleton-1000-in-soup": _soup_with_random_joints,
 }
 
 # Families that need root (mknod of a character device).

@@ -201,12 +201,14 @@ def _report_stats():
     if STATS and os.environ.get("AUTORIG_FUZZ_STATS"):
         kind, longest, code = max(STATS, key=lambda s: s[1])
         exits: dict[int, int] = {}
-        for _, _, c in STATS:
+        kinds: dict[str, int] = {}
+        for k, _, c in STATS:
             exits[c] = exits.get(c, 0) + 1
+            kinds[k] = kinds.get(k, 0) + 1
         Path(os.environ["AUTORIG_FUZZ_STATS"]).write_text(json.dumps(
             {"cases": len(STATS), "seconds": round(sum(s for _, s, _ in STATS), 2),
              "longest": {"kind": kind, "seconds": round(longest, 3), "exit": code},
-             "exits": {str(k): v for k, v in sorted(exits.items())}}, indent=1) + "\n")
+             "exits": {str(k): v for k, v in sorted(exits.items())}, "kinds": kinds}, indent=1) + "\n")
 
 
 def test_the_seeds_rig():

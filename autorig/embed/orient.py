@@ -251,8 +251,11 @@ def _problem(graph, template):
     """The embedding problem of ``template`` on ``graph``, or None if the template cannot fit it at all."""
     from .penalties import build_problem
     from ..errors import RigFailedError
+    from ..input.budget import OverBudget
     try:
         return build_problem(graph, template)
+    except OverBudget:
+        raise
     except RigFailedError:
         return None
 
@@ -262,10 +265,13 @@ def _embedding_cost(problem, expansions: int) -> tuple[float, float]:
     any embedding's: the penalty itself when the search finished); (inf, inf) if there is none."""
     from .search import search
     from ..errors import RigFailedError
+    from ..input.budget import OverBudget
     if problem is None:
         return float("inf"), float("inf")
     try:
         found = search(problem, max_expansions=expansions)
+    except OverBudget:
+        raise
     except RigFailedError:
         return float("inf"), float("inf")
     return float(found.cost), float(found.bound)

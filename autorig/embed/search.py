@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import RigFailedError
+from ..input.budget import SEARCH_QUEUE, checkpoint, over_memory
 from .penalties import EmbeddingProblem, backtrack_penalty, overlap_penalty, symmetry_penalty
 
 
@@ -41,6 +42,7 @@ GREEDY_STARTS = 8
 # that runs past that is lost in a shape that does not fit (a horse embedded facing backwards ran its 20,000
 # states, 2.7 s, to end with the greedy answer anyway).
 MAX_EXPANSIONS = 6_000
+QUEUED_BYTES = 250     # about what one queued partial embedding takes (a tuple of floats and sphere indices)
 
 
 def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> Embedding:
@@ -113,6 +115,7 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
     for s in roots[np.argsort(root_f, kind="stable")[:GREEDY_STARTS]]:
         placed, g = (int(s),), float(problem.root_cost[s])
         while len(placed) < K:
+            checkpoint()
             spheres, g2, f2 = expand(placed, g)
             if len(spheres) == 0:
                 break
@@ -141,10 +144,14 @@ def search(problem: EmbeddingProblem, max_expansions: int = MAX_EXPANSIONS) -> E
         expanded += 1
         if expanded > max_expansions:
             break
+        checkpoint()
         spheres, g2, f2 = expand(placed, g)
         for i in np.flatnonzero(f2 <= upper):
             heapq.heappush(queue, (float(f2[i]), counter, float(g2[i]), placed + (int(spheres[i]),)))
             counter += 1
+        if len(queue) > SEARCH_QUEUE:
+            over_memory("the embedding's search", len(queue) * QUEUED_BYTES, SEARCH_QUEUE * QUEUED_BYTES,
+                        f"{len(queue):,} partial embeddings")
     if greedy is not None:
         # Out of budget: the greedy embedding is complete and usually close; the caller is told.
         return Embedding(np.array(greedy[0]), _paths(problem, greedy[0]), greedy[1], expanded, optimal=False,

@@ -252,8 +252,8 @@ def read_glb(path: str | os.PathLike) -> Rig:
     data = file_bytes(path)
     try:
         return _read(path, data)
-    except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
-            OSError) as e:
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, OverflowError, struct.error,
+            binascii.Error, OSError) as e:
         raise InputError(f"cannot read {path} as glTF: {e}") from None
 
 
@@ -345,8 +345,8 @@ def read_gltf_scene(path: str | os.PathLike, allow_outside: bool = False, max_fa
                 if look and _has_look(doc, gathered, normals=True) else None)
     except InputError:
         raise
-    except (ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
-            OSError, UnicodeDecodeError) as e:
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, OverflowError, struct.error,
+            binascii.Error, OSError, UnicodeDecodeError) as e:
         message = " ".join(str(e).split())[:150] or type(e).__name__
         raise InputError(f"{path}: cannot read as glTF ({message})") from None
     return gathered.vertices, gathered.faces, look

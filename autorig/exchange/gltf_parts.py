@@ -258,7 +258,8 @@ def _view_array(doc: GLTF2, buffers: list[bytes], view_index: int, offset: int, 
     start = (view.byteOffset or 0) + offset
     if count < 0 or offset < 0 or stride < 0 or (view.byteOffset or 0) < 0:
         raise ValueError(f"a negative count, offset or stride in buffer view {view_index}")
-    if count and start + (count - 1) * stride + dtype.itemsize * width > (view.byteOffset or 0) + view.byteLength:
+    end = (view.byteOffset or 0) + view.byteLength
+    if start > end or (count and start + (count - 1) * stride + dtype.itemsize * width > end):
         raise ValueError(f"an accessor reads past the end of buffer view {view_index}")
     if (view.byteOffset or 0) + view.byteLength > len(buffers[view.buffer]):
         raise ValueError(f"buffer view {view_index} runs past the end of buffer {view.buffer}")

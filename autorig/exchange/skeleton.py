@@ -133,7 +133,7 @@ def _from_json(data: bytes, path: Path) -> Skeleton:
             raise SkeletonError(f"skeleton {path}: joint #{k} has no name")
         try:
             position = [float(x) for x in joint.get("position")]
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             position = []
         if len(position) != 3:
             raise SkeletonError(f"skeleton {path}: joint {joint['name']!r}: position must be three numbers")
@@ -182,8 +182,8 @@ def _from_gltf(data: bytes, path: Path) -> Skeleton:
         return _gltf_skeleton(data, path)
     except SkeletonError:
         raise
-    except (InputError, ValueError, KeyError, IndexError, TypeError, AttributeError, struct.error, binascii.Error,
-            OSError, np.linalg.LinAlgError) as e:
+    except (InputError, ValueError, KeyError, IndexError, TypeError, AttributeError, OverflowError, struct.error,
+            binascii.Error, OSError, np.linalg.LinAlgError) as e:
         message = str(e).split(": ", 1)[-1] if isinstance(e, InputError) else f"{type(e).__name__}: {e}"
         raise SkeletonError(f"skeleton {path}: cannot read as glTF ({message})") from None
 

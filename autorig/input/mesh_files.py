@@ -82,6 +82,8 @@ def _parse_obj_fast(text: str) -> tuple[np.ndarray, np.ndarray] | None:
             index = np.array([c for face in corners for c in face], dtype=np.int64)
     except ValueError:
         return None
+    if len(vertices) != v_count:    # a "v" line loadtxt skipped as blank: the line parser names it
+        return None
     if counts.min() < 3 or index.min() < 1:
         return None
     if counts.max() > max(len(vertices), 1000):  # the line parser names the line

@@ -28,6 +28,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from ..input.budget import HEAT_BYTES, checkpoint, over_memory
 from .pieces import follow_body
 
 HEAT_C = 2.0            # c in H_ii = c / d_i^2. The paper uses 1; 2 is closer to artists' sharper weights
@@ -72,6 +73,9 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None, he
     if len(V) == 0:
         return W
     bone_child = np.flatnonzero(parents >= 0)                        # bone b runs parents[c] -> c, c = bone_child[b]
+    # The dense arrays: three [vertices, bones] (distances, their order, the weights) and two [vertices, joints].
+    over_memory("the bone heat", 8 * len(V) * (3 * len(bone_child) + 2 * n_joints), HEAT_BYTES,
+                f"{len(V):,} vertices and {len(bone_child):,} bones")
     if len(bone_child) == 0:
         W[:, int(np.flatnonzero(parents < 0)[0])] = 1.0
         return W
@@ -310,6 +314,7 @@ def nearest_visible_bones(V, F, heads, tails, dist, idx):
     dmin = np.full(len(idx), np.inf)
     active = np.arange(len(idx))
     for r in range(len(heads)):
+        checkpoint()
         cand = order[active, r]
         d = dist[idx[active], cand]
         keep = d <= TIE_RATIO * dmin[active]

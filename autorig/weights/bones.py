@@ -37,6 +37,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..input.budget import checkpoint
+
 ALONG = 0.02            # a bone whose points lie this close (x its length) to other bones runs along them
 ZERO_LENGTH = 1e-6      # bones shorter than this (x the mesh's longest side) have no direction
 BONE_SAMPLES = 16       # points per bone for the inside test
@@ -121,6 +123,7 @@ def plan_heat(vertices, faces, names, joints, parents, tips=None) -> HeatPlan:
     has_child[parents[parents >= 0]] = True
     tip_joints, tip_leaves = [], []
     for leaf in np.flatnonzero(~has_child & (parents >= 0)):
+        checkpoint()
         tip = given_tips[leaf]
         if not np.isfinite(tip).all() or np.linalg.norm(tip - P[leaf]) < ZERO_LENGTH * size:
             tip = leaf_tip(V, F, P[parents[leaf]], P[leaf], size)
@@ -228,6 +231,7 @@ def along_other_bones(P, parents, bones) -> list[int]:
         lengths = np.linalg.norm(tails - heads, axis=1)
         doubling = []
         for k, b in enumerate(left):
+            checkpoint()
             X = heads[k] + t[:, None] * (tails[k] - heads[k])
             others = [i for i in range(len(left)) if i != k]
             near = segment_distances(X, heads[others], tails[others]).min(axis=1) <= ALONG * lengths[k]
@@ -260,6 +264,7 @@ def split_at_parts(V, F, P, parents, bones, size: float) -> dict[int, tuple[np.n
     face_part = label[F[:, 0]]
     out: dict[int, np.ndarray] = {}
     for k in range(count):
+        checkpoint()
         Fk = F[face_part == k]
         if len(Fk) == 0:
             continue
@@ -273,6 +278,7 @@ def split_at_parts(V, F, P, parents, bones, size: float) -> dict[int, tuple[np.n
         inside = ((igl.fast_winding_number(V, Fk, X) >= 0.5)
                   | (np.sqrt(igl.point_mesh_squared_distance(X, V, Fk)[0]) <= NEAR_SURFACE * size)).reshape(-1, 2)
         for (c, p), (child_in, parent_in) in zip(ends, inside):
+            checkpoint()
             if child_in and not parent_in:
                 t = np.linspace(0.0, 1.0, 4 * BONE_SAMPLES + 1)
                 X = P[c] + t[:, None] * (P[p] - P[c])
