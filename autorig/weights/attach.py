@@ -163,7 +163,12 @@ class HeatSurfaceAhead:
 def _coarse_copy(V, F):
     """The simplified copy of a dense welded surface V [U, 3], F [G, 3] that the heat is solved on, and where
     each dense vertex lies on it: (vertices [U', 3], faces [G', 3], corners [U, 3] the copy's vertices of the
-    triangle closest to each dense vertex, bary [U, 3] the closest point's barycentric coordinates there)."""
+    triangle closest to each dense vertex, bary [U, 3] the closest point's barycentric coordinates there).
+
+    A dense vertex lies on the copy of its own connected part: simplification keeps parts apart, but the
+    closest copy triangle of a fingertip under a nail can be the nail's (whose heat, from the bones it sees
+    through the gap between the fingers, is not the finger's); each dense part goes with the copy's part most
+    of its vertices are closest to, and the vertices closest to another part are put on that one's."""
     import fast_simplification
     import igl
 
@@ -172,12 +177,34 @@ def _coarse_copy(V, F):
     tree = igl.AABB()
     tree.init(coarse_V, coarse_F)
     _, face, closest = tree.squared_distance(coarse_V, coarse_F, V)
+    face = np.asarray(face, dtype=np.int64)
+    dense_part, coarse_part = _parts(V, F), _parts(coarse_V, coarse_F)
+    landed = coarse_part[coarse_F[face, 0]]
+    on = dense_part >= 0
+    votes = sp.coo_matrix((np.ones(int(on.sum())), (dense_part[on], landed[on]))).tocsr()
+    own = np.where(on, np.asarray(votes.argmax(axis=1)).ravel()[dense_part], landed)   # [U] the copy's part
+    stray = np.flatnonzero(landed != own)
+    for part in np.unique(own[stray]):
+        at = stray[own[stray] == part]
+        faces = np.flatnonzero(coarse_part[coarse_F[:, 0]] == part)
+        _, k, closest[at] = igl.point_mesh_squared_distance(V[at], coarse_V, coarse_F[faces])
+        face[at] = faces[np.asarray(k, dtype=np.int64)]
     corners = coarse_F[face]
     bary = igl.barycentric_coordinates(closest, coarse_V[corners[:, 0]], coarse_V[corners[:, 1]],
                                        coarse_V[corners[:, 2]])
     bary = np.clip(np.nan_to_num(bary, nan=1.0 / 3.0), 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
     return coarse_V, coarse_F, corners, bary
+
+
+def _parts(V, F):
+    """[U] the connected part of each vertex of V [U, 3] over the faces F; -1 for a vertex on no face."""
+    n = len(V)
+    adj = sp.coo_matrix((np.ones(F.size), (F.ravel(), np.roll(F, 1, axis=1).ravel())), shape=(n, n))
+    _, label = connected_components(adj, directed=False)
+    on_face = np.zeros(n, bool)
+    on_face[F.ravel()] = True
+    return np.where(on_face, label, -1)
 
 
 def _weights_via_coarse_surface(coarse, heads, tails, laplacian=None):
