@@ -211,3 +211,11 @@ def test_a_dense_surface_lies_on_its_own_parts_simplified_copy(monkeypatch):
     assert np.array_equal(on_sphere, on_sphere_too)                 # each triangle on one part
     assert on_sphere[weld[:len(body.vertices)]].all()
     assert not on_sphere[weld[len(body.vertices):]].any()
+    # the lens, a tenth of the height or less, moves rigidly with the sphere under it, on the copy as on the
+    # dense surface
+    joints = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    W = bone_heat(V, F, joints, np.array([-1, 0, 1]), height=5.0)     # the lens: 0.43 across
+    lens_rows = W[len(body.vertices):]
+    assert np.ptp(lens_rows, axis=0).max() < 1e-9
+    under = np.linalg.norm(body.vertices - [0, 0, 1], axis=1) < 0.15
+    np.testing.assert_allclose(lens_rows[0], W[:len(body.vertices)][under].mean(axis=0), atol=0.05)

@@ -78,11 +78,11 @@ def bone_heat(vertices, faces, joints, parents, *, owners=None, surface=None, he
 
     weld, Vw, Fw, coarse, laplacian = surface or heat_surface(V, F)
     heads, tails = P[parents[bone_child]], P[bone_child]
-    if coarse is not None:
-        Wb = _weights_via_coarse_surface(coarse, heads, tails, laplacian)
+    if coarse is not None:           # pieces follow their body on the copy: each dense vertex lies on its part's
+        Wb = _weights_via_coarse_surface(coarse, heads, tails, laplacian, height)
     else:
         Wb = _bone_weights(Vw, Fw, heads, tails, laplacian)          # [U, B] on welded vertices
-    Wb = follow_body(Vw, Fw, Wb, height, (heads, tails))             # pieces go with the body they sit on
+        Wb = follow_body(Vw, Fw, Wb, height, (heads, tails))         # pieces go with the body they sit on
     to_joint = np.zeros((len(bone_child), n_joints))                 # bone -> owning joint column
     to_joint[np.arange(len(bone_child)), owners[bone_child]] = 1.0
     return np.take(Wb @ to_joint, weld, axis=0)                      # = (Wb @ to_joint)[weld], faster
@@ -207,12 +207,16 @@ def _parts(V, F):
     return np.where(on_face, label, -1)
 
 
-def _weights_via_coarse_surface(coarse, heads, tails, laplacian=None):
+def _weights_via_coarse_surface(coarse, heads, tails, laplacian=None, height=None):
     """Bone weights [U, B] of a dense surface's vertices, solved on its simplified copy ``coarse``
-    (``_coarse_copy``; laplacian: the copy's, if made already). Each dense vertex takes the weights at its
-    closest point on the simplified surface, interpolated across that triangle."""
+    (``_coarse_copy``; laplacian: the copy's, if made already), where the separate pieces then take the weights
+    of the body they sit on (``follow_body``; height as ``bone_heat`` takes it). Each dense vertex takes the
+    weights at its closest point on the copy of its own part, interpolated across that triangle: a rigid
+    piece's one row stays one row, and the pieces' closest points are sought among the copy's vertices
+    (the ogre's 62k: 0.66 -> 0.1 s)."""
     coarse_V, coarse_F, corners, bary = coarse
-    W = _bone_weights(coarse_V, coarse_F, heads, tails, laplacian)
+    W = follow_body(coarse_V, coarse_F, _bone_weights(coarse_V, coarse_F, heads, tails, laplacian), height,
+                    (heads, tails))
     # Corner by corner: W[corners] at once would be a [U, 3, B] temporary (280 MB for a 1M-face scan). Rows
     # gathered by np.take and scaled in place: the same products and sums, 0.26 -> 0.16 s for [500k, 23].
     dense = np.take(W, corners[:, 0], axis=0)
