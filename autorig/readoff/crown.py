@@ -22,7 +22,6 @@ Only for templates whose head bone points up (the biped and humanoid); a four-le
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import grey_closing
 
 CROWN_REACH = 1.5        # head radii around the vertical through the head joint that the crown is sought in
 UPRIGHT = 0.8            # a template's head bone points up if its direction's up component is above this
@@ -92,10 +91,21 @@ def skull_base(joints: np.ndarray, template, depth, vertices: np.ndarray) -> flo
     # a slit (lips parted on the mid-plane, one height thin) is no neck: dips narrower than SLIT closed over
     step = (joints[head][1] - low) / (PROFILE_HEIGHTS - 1)
     width = 2 * int(np.ceil(0.5 * SLIT * height / step)) + 1
-    extent = grey_closing(z[last] - z[first], size=width, mode="nearest")
+    extent = _closing(z[last] - z[first], width)
     # a neck of even thickness is thinnest all along: the head begins at its top
     thin = extent <= THIN * extent.min() + 2 * (z[1] - z[0])
     return float(y[np.flatnonzero(thin)[-1]])
+
+
+def _closing(values: np.ndarray, width: int) -> np.ndarray:
+    """[N] the grey closing of ``values`` [N] over ``width`` (odd) samples, edges repeated: the running maximum,
+    then the running minimum; dips narrower than ``width`` filled, wider ones kept as they are (numpy's
+    sliding windows: scipy.ndimage costs every rig 75 ms to import)."""
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    half = width // 2
+    high = sliding_window_view(np.pad(values, half, mode="edge"), width).max(axis=1)
+    return sliding_window_view(np.pad(high, half, mode="edge"), width).min(axis=1)
 
 
 def heat_joints(joints: np.ndarray, template, base: float | None) -> np.ndarray:
