@@ -174,6 +174,25 @@ def test_a_head_leaning_in_the_clips_rest_turns_the_rigs_head_by_the_clips_turn(
         pytest.approx(60, abs=3)
 
 
+def test_a_head_leaning_in_the_clips_rest_stays_upright_when_the_clip_turns_round(rig):
+    """The same leaning head, the whole body turned half round about the vertical: the rig's head turns about
+    the vertical with it and stays as upright as at rest (the clip's rest lean mapped onto the rig's rest
+    would tip it by twice the lean, 12 degrees, facing back)."""
+    from autorig.template import load_template
+
+    template = load_template("biped")
+    joints = dict(mannequin_sample().joints)
+    head = joints["head"]
+    length = np.linalg.norm(joints["head_end"] - head)
+    joints["head_end"] = head + length * np.array([0.0, np.cos(np.radians(6.0)), np.sin(np.radians(6.0))])
+    motion = parse_bvh(skeleton_bvh(list(template.names), CMU_NAMES, template.parents, joints,
+                                    [{}, {"hips": (0, 180.0, 0)}], [(0, 0, 0)] * 2), name="turning.bvh")
+    animation = retarget(rig, motion)
+    d = rig.joint("head_end") - rig.joint("head")
+    half_turn = Rotation.from_euler("y", 180, degrees=True).as_matrix()
+    assert angle(animation.rotations[1, rig.names.index("head")] @ d, half_turn @ d) < 0.1
+
+
 def test_bone_lengths_stay_the_rigs(rig, animation):
     for j, p in rig.bones:
         rest = np.linalg.norm(rig.joints[j] - rig.joints[p])

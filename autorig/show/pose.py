@@ -15,9 +15,10 @@ skeleton was built in, and bone lengths stay the rig's. Unmapped rig joints move
 Bones that stand upright in both rest poses (a spine, a neck, a head: within ``UPRIGHT_CONE`` of up) are
 the exception: both skeletons stand upright at rest, and what separates their directions there is build (a
 capture's head leaning two degrees forward), not pose, so the rig's rest maps to the motion's rest and the
-bone turns away from it as the motion's does, A_j G_b(t) A_j^T: a clip's head that nods 10 degrees nods the
-rig's head 10 degrees from its own upright rest (blended linearly to world directions across the cone's
-edge, so that the motion stays continuous in both rest poses).
+bone takes the motion's turn away from its rest, G_b(t): a clip's head that nods 10 degrees nods the rig's
+head 10 degrees from its own upright rest, and a walker turning round turns it about the vertical (blended
+linearly to world directions across the cone's edge, G_b(t) A_j^T A_j^w, so that the motion stays
+continuous in both rest poses).
 
 The root is placed by the motion's root, scaled by the ratio of the two hip heights (hips above the ground with
 the legs straight), its first frame's ground position put under the rig's rest root, and the motion's ground
@@ -196,8 +197,8 @@ def retarget(rig: Rig, motion: Motion, mapping: dict[str, str] | None = None, up
         if j in source:
             pairs = _pairs(j, source, rig, motion, motion_rest, to_rig)
             align[j] = _alignment(pairs, align[p] if p >= 0 else np.eye(3))
-            rotations[:, j] = _rest_to_rest(align[j], _upright(pairs, rig_frame[1])) @ motion_r[:, source[j]] \
-                @ align[j].T
+            rotations[:, j] = motion_r[:, source[j]] @ align[j].T @ _rest_to_rest(align[j], _upright(pairs,
+                                                                                              rig_frame[1]))
         else:
             align[j] = align[p] if p >= 0 else np.eye(3)
             rotations[:, j] = rotations[:, p] if p >= 0 else np.eye(3)
@@ -269,8 +270,9 @@ def _upright(pairs: list[tuple[np.ndarray, np.ndarray]], up: np.ndarray) -> floa
 
 
 def _rest_to_rest(align: np.ndarray, amount: float) -> np.ndarray:
-    """The part [3, 3] of ``align`` (a joint's alignment) applied after the motion's rotation: ``amount`` of
-    it by angle about its axis (1: the rig's rest maps to the motion's rest, 0: world directions copied)."""
+    """``amount`` [3, 3] of ``align`` (a joint's alignment), by angle about its axis, undoing that much of it
+    before the motion's rotation: 1, the rig's rest maps to the motion's rest (the joint turns by the motion's
+    own rotation); 0, world directions copied."""
     if amount <= 0.0:
         return np.eye(3)
     from scipy.spatial.transform import Rotation
