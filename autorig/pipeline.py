@@ -56,7 +56,10 @@ class RigOptions:
     allow_outside_paths: let a mesh file name textures, MTL files and buffers outside its own folder
     (``autorig.input.confine``).
     fingers: read fingers off the hands (``autorig.hands``) whatever the template says; a template with
-    ``"fingers": true`` always gets them."""
+    ``"fingers": true`` always gets them.
+    markers: a markers file (path) or {name: [x, y, z]} in the input's coordinates (``autorig.markers``): the
+    joints they name are held at them, and the axes left "auto" are the markers' when they tell; None for
+    none."""
     up: str = "auto"
     front: str = "auto"
     voxels: int = 96
@@ -65,6 +68,7 @@ class RigOptions:
     max_faces: int | None = MAX_FACES
     allow_outside_paths: bool = False
     fingers: bool = False
+    markers: str | Path | dict | None = None
 
 
 def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
@@ -94,23 +98,32 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     with stage("load"):
         vertices, faces, name, look = _load(mesh, options)
         template = template if isinstance(template, Template) or template == AUTO else load_template(template)
+        markers = _markers(options.markers, template)
     if template == AUTO:
         return _rig_without_template(vertices, faces, name, look, options, stage, timings)
     convention, _ = convention_named(template, options.convention)   # an unknown name fails before the work
+    up, front = options.up, options.front
+    if markers:     # the axes left "auto" are the markers' when they tell
+        from .markers import marker_frame
+        up, front = marker_frame(markers, template, vertices[np.unique(faces)], up, front)
     with stage("prepare"):
-        prepared = prepare(vertices, faces, *working_axes(options.up, options.front), name=name, checked=True)
+        prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True)
         heat_surface = start_heat_surface(prepared)   # a dense mesh's heat surface, made beside the skeleton
     field, graph = discretize(prepared, stage)
     with stage("orientation"):
-        frame = detect_orientation(prepared, field, graph, template, options.up, options.front)
+        frame = detect_orientation(prepared, field, graph, template, up, front)
         prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
-    embedding, joints = embed_and_refine(field, graph, template, stage)
+    held = _held(markers, template, prepared, vertices, faces, options)
+    # Marked joints are put at their markers once the joints are in the convention the markers are in (the
+    # rig's own, where the user sees them), and kept there by each stage after it (``autorig.markers``).
+    keep = held.apply if held is not None else (lambda joints: joints)
+    embedding, joints = embed_and_refine(field, graph, template, stage, held=held)
     with stage("placement"):
         neck = neck_fraction(field) if (template.placement or {}).get("neck") is not None else None
         joints = learned_placement(joints, template, np.ptp(prepared.work_vertices, axis=0), field,
                                    shift=convention_shift(template, convention), neck=neck)
     with stage("convention"):
-        joints = in_convention(joints, template, convention, field)
+        joints = keep(in_convention(joints, template, convention, field))
     if template.legs:    # four-legged templates only: the biped has no learned legs and pays nothing
         from .readoff.legs import read_legs, surface_of
         from .readoff.head import read_head
@@ -118,15 +131,15 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         with stage("legs"):
             joints = read_legs(joints, template, *surface_of(field))
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
-            joints = read_head(joints, template, field.depth, surface_of(field)[0])
+            joints = keep(read_head(joints, template, field.depth, surface_of(field)[0]))
     with stage("tips"):
-        joints = crown_tip(joints, template, prepared.vertices, field.depth)   # head_end up to the crown
+        joints = keep(crown_tip(joints, template, prepared.vertices, field.depth))   # head_end up to the crown
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers
         with stage("hands"):
             fingers = read_fingers(prepared.vertices, prepared.faces, template.names, joints)
-            joints = fingers.moved_joints(template.names, joints)   # an arm short of its hand ends at it
+            joints = keep(fingers.moved_joints(template.names, joints))   # an arm short of its hand ends at it
     with stage("skin weights"):
         surface = heat_surface.result_for(prepared)
         height = float(np.ptp(prepared.work_vertices[:, 1]))     # the canonical frame stands on y
@@ -159,7 +172,40 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
               "embedding_optimal": embedding.optimal, "spheres": int(len(graph.radii)),
               "search_expansions": int(embedding.expanded), **rest_pose(joints, template.names),
               **dropped_info(look), **(fingers.info() if fingers is not None else {}),
-              **({"convention": convention} if convention else {})})
+              **({"convention": convention} if convention else {}),
+              **(_markers_info(held, joints, options, up, front) if held is not None else {})})
+
+
+def _markers(given, template) -> dict | None:
+    """{name: point [3]} of ``RigOptions.markers`` (a path or a dict), checked against the template, or None."""
+    if given is None:
+        return None
+    from .errors import InputError
+    from .markers import markers_from, read_markers
+    from .template import AUTO
+    if template == AUTO:
+        raise InputError("markers need a template: --template auto makes its own skeleton")
+    return read_markers(given, template) if isinstance(given, (str, Path)) else markers_from(given, template)
+
+
+def _held(markers, template, prepared, vertices, faces, options):
+    """The ``autorig.markers.Held`` joints of ``markers`` in ``prepared``'s canonical frame, once the markers
+    are checked against the mesh (inside it, left and right as its axes say); None without markers."""
+    if not markers:
+        return None
+    from .markers import check_markers, held_joints
+    source = Path(options.markers).name if isinstance(options.markers, (str, Path)) else "markers"
+    check_markers(markers, vertices, faces, prepared.rotation[0], prepared.height, source)
+    return held_joints(markers, template, prepared.to_canonical)
+
+
+def _markers_info(held, joints, options, up, front) -> dict:
+    """What a rig's ``info`` says of its markers: their names, how far (in heights) the farthest marked joint
+    lies from its marker, and which axes the markers chose."""
+    chosen = [axis for axis, given, used in (("up", options.up, up), ("front", options.front, front))
+              if given != used]
+    return {"markers": list(held.names), "marker_error": round(float(held.distances(joints).max()), 5),
+            **({"axes_from_markers": chosen} if chosen else {})}
 
 
 def discretize(prepared, stage=None):
@@ -182,18 +228,20 @@ def discretize(prepared, stage=None):
     return field, graph
 
 
-def embed_and_refine(field, graph, template, stage=None, max_expansions: int | None = None):
+def embed_and_refine(field, graph, template, stage=None, max_expansions: int | None = None, held=None):
     """(embedding, joints [J, 3]) of ``template`` in a discretized mesh (``discretize``), canonical frame: the
     discrete embedding, then every joint along its paths and refined, before the learned placement. Shared by
     ``rig`` and the learner's calibration rigs (``autorig.learn.calibrate``), which search with a smaller budget
-    (``max_expansions``; None: the search's own). Raises ``RigFailedError`` when the template does not fit."""
+    (``max_expansions``; None: the search's own). ``held``: the joints the user marked (``autorig.markers``),
+    which the embedding puts in the limbs of their markers. Raises ``RigFailedError`` when the template does
+    not fit."""
     from .embed import embed
     from .embed.refine import place_on_paths, refine
     from .readoff.tips import along_the_foot, surface_for
 
     stage = stage or _stage_timer({})
     with stage("embedding"):
-        embedding = embed(graph, template, max_expansions)
+        embedding = embed(graph, template, max_expansions, held)
     with stage("refinement"):
         joints = along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
                                        template), template)

@@ -3,7 +3,7 @@ quick start rigs, the README stays a front page, and the site builds with ``mkdo
 
 The examples run in one folder holding the files they name: ``hero.obj`` and ``upload.obj`` (the project's
 mannequin), ``dog.obj`` and ``dog.ply``, ``scan.obj`` (the mannequin turned Z-up, facing -y), ``joints.json``,
-``hero.glb``, ``my_rig.glb``, ``man.rigged.glb``, ``studio_rig.glb``, ``walk.bvh`` and ``clip.bvh`` (121 frames),
+``hero.glb`` and ``hero.markers.json`` (its rig's wrists and knees), ``my_rig.glb``, ``man.rigged.glb``, ``studio_rig.glb``, ``walk.bvh`` and ``clip.bvh`` (121 frames),
 ``map.json``, ``pig.obj`` with its ``pig.mtl``, ``octopus.obj`` and ``spider.obj`` (stars of 8 and 6 arms), folders
 ``assets/``, ``creatures/`` and ``crowd/`` to rig and ``studio/`` of rigged characters to learn from.
 ``autorig`` there is this checkout's (``python -m autorig.cli``), whatever is installed.
@@ -11,6 +11,7 @@ mannequin), ``dog.obj`` and ``dog.ply``, ``scan.obj`` (the mannequin turned Z-up
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 import re
 import shutil
@@ -62,6 +63,9 @@ def workspace(tmp_path_factory) -> tuple[Path, dict]:
     hero.export(folder / "scan.obj")
     rig = autorig.rig(folder / "hero.obj")
     write_rig(rig, folder / "hero.glb", "glb")
+    at = dict(zip(rig.names, rig.joints.tolist()))    # the fix-a-rig loop's markers: the hero's own joints
+    (folder / "hero.markers.json").write_text(json.dumps({n: at[n] for n in ("left_wrist", "right_wrist",
+                                                                             "left_knee", "right_knee")}))
     write_rig(rig, folder / "my_rig.glb", "glb")
     # 121 frames (--frame 120): the left arm lowered and raised, walking forward 2 cm a frame.
     frames = [{"left_shoulder": (0.0, 0.0, -40.0 * np.sin(k / 10)), "right_elbow": (0.0, -30.0, 0.0)}

@@ -259,7 +259,8 @@ def rig_folder(input_dir: str | os.PathLike, output_dir: str | os.PathLike, temp
         def jobs_of() -> Iterator[tuple[Plan, Job]]:
             for plan in order:
                 try:
-                    files = input_files(input_dir / plan.rel, input_dir, plan.options.allow_outside_paths)
+                    files = input_files(input_dir / plan.rel, input_dir, plan.options.allow_outside_paths,
+                                        markers=getattr(plan.options, "markers", None) is not None)
                     yield plan, Job(plan.rel, files, plan.template, plan.skeleton, plan.options, fmt, names=names,
                                     thumbnails=html is not None)
                 except InputError as e:  # unreadable, or gone since it was found

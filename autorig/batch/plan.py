@@ -125,7 +125,9 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
             if convention is not None:
                 from ..embed.convention import convention_named
                 convention_named(loaded, convention)
-            how = replace(options, up=up, front=front, convention=convention)
+            sidecar = markers_sidecar(input_dir / rel) if loaded != AUTO else None
+            how = replace(options, up=up, front=front, convention=convention,
+                          markers=sidecar.name if sidecar is not None else None)
             label = AUTO if loaded == AUTO else loaded.name
             content = (_digest({"name": AUTO, "voxels": how.voxels, "max_segments": how.max_segments})
                        if loaded == AUTO else templates.digest(loaded))
@@ -134,7 +136,8 @@ def plan_assets(input_dir: Path, output_dir: Path, template, options, fmt: str, 
                         # --fingers only when asked (autorig.hands), so that earlier rigs still count as done
                         **({"fingers": True} if how.fingers and loaded != AUTO else {})}
         try:
-            files = input_files(input_dir / rel, input_dir, allow_outside)
+            files = input_files(input_dir / rel, input_dir, allow_outside,
+                                markers=getattr(how, "markers", None) is not None)
         except Exception:  # InputError, or a bug: reported as that asset's error when it is read again
             key, size = "", 0  # fails as that asset's error when it is read again to be rigged
         else:
@@ -379,8 +382,16 @@ def _check_axis(spec: str, key: str, where: str) -> str:
     return spec.lower()
 
 
-def input_files(path: Path, root: Path | None = None, allow_outside: bool = False) -> dict[str, bytes]:
-    """The bytes a mesh needs, by name relative to its folder: the file itself, first, and for a ``.gltf``
+def markers_sidecar(path: Path) -> Path | None:
+    """The markers file beside a mesh (``hero.obj`` -> ``hero.markers.json``, ``autorig.markers``), or None."""
+    sidecar = path.with_name(path.stem + ".markers.json")
+    return sidecar if sidecar.is_file() else None
+
+
+def input_files(path: Path, root: Path | None = None, allow_outside: bool = False,
+                markers: bool = False) -> dict[str, bytes]:
+    """The bytes a mesh needs, by name relative to its folder: the file itself, first, with ``markers`` its
+    markers file (``markers_sidecar``), and for a ``.gltf``
     the external buffers and images it names that exist (a missing one is the loader's error to report).
     Only files in the mesh's folder or below it are sent (the worker's loader says what is left out), and
     the mesh itself must lie in ``root`` (the input folder) unless ``allow_outside``: a symlink there that
@@ -397,6 +408,16 @@ def input_files(path: Path, root: Path | None = None, allow_outside: bool = Fals
     except OSError as e:
         raise InputError(f"{path}: cannot read file ({e.strerror or e})") from None
     folder = path.parent.resolve()
+    sidecar = markers_sidecar(path) if markers else None
+    if sidecar is not None:   # beside the mesh, and confined as the files a mesh names are
+        from ..markers import MARKERS_BYTES
+        if not allow_outside and folder not in sidecar.resolve().parents:
+            raise InputError(f"{sidecar}: a symlink leads outside the asset's folder (--allow-outside-paths to "
+                             f"allow)")
+        try:
+            files[sidecar.name] = read_regular(sidecar, MARKERS_BYTES)
+        except OSError as e:
+            raise InputError(f"{sidecar}: cannot read file ({e.strerror or e})") from None
 
     def add(name: str, base: Path = folder) -> Path | None:
         try:

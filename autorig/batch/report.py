@@ -19,7 +19,8 @@ def write_json_report(result: BatchResult, path: str | os.PathLike) -> None:
                      "previous": null, "template": "quadruped", "up": "y", "front": "z", "error": null,
                      "error_type": null, "confidence": 0.82, "seconds": 3.1, "timings": {"load": 0.1, ...},
                      "confidence_parts": {"fit": 0.9, ...}, "previous_timings": {}, "thumbnails": {},
-                     "rest_pose": "A", "arm_angle": 41.5, "doubtful": false, "confidence_reasons": []},
+                     "rest_pose": "A", "arm_angle": 41.5, "doubtful": false, "confidence_reasons": [],
+                     "markers": "dogs/rex.markers.json"},
                     ...]}
 
 ``doubtful`` is true for a rig (made now or kept) whose confidence is below 0.5, probably wrong, and
@@ -29,6 +30,7 @@ outcome is a failure.
 
     ``rest_pose`` and ``arm_angle`` are the rig's (``autorig.readoff.rest_pose``: "T", "A" or "arms down", and the
     arms' degrees below the horizontal), null for a rig without arms (a quadruped) and for an asset without a rig.
+    ``markers``, only for an asset rigged with a markers file beside it (``autorig.markers``), names that file.
     """
     from ..exchange import write_file_atomic
     document = {"autorig": __version__, "input": str(result.input_dir.resolve()),
@@ -42,6 +44,8 @@ def _json_asset(asset: AssetResult) -> dict:
     document = asdict(asset)
     if not document["hands"]:       # only rigs that were asked for fingers (autorig.hands) say which hands have them
         del document["hands"]
+    if document["markers"] is None:  # only assets with a markers file beside them say so
+        del document["markers"]
     document["doubtful"] = asset.doubtful
     document["seconds"] = round(asset.seconds, 3)
     document["timings"] = {stage: round(s, 4) for stage, s in asset.timings.items()}
@@ -88,7 +92,8 @@ def write_junit_report(result: BatchResult, path: str | os.PathLike) -> None:
             out.text = f"{asset.template} -> {asset.output}" + (
                 f", confidence {asset.confidence:.3f}" if asset.confidence is not None else "") + (
                 f", rest pose {asset.rest_pose} ({round(asset.arm_angle) + 0:d} deg)" if asset.rest_pose else
-                "") + (f"; doubtful: {_doubt(asset)}" if asset.doubtful else "")
+                "") + (f", markers {asset.markers}" if asset.markers else "") + (
+                f"; doubtful: {_doubt(asset)}" if asset.doubtful else "")
     for element in suites.iter():  # XML 1.0 holds no control characters but tab and newline, nor lone surrogates
         element.attrib = {key: printable(value) for key, value in element.attrib.items()}
         if element.text:

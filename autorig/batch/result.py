@@ -37,6 +37,8 @@ class AssetResult:
     rest_pose   ``rig.info["rest_pose"]``: the arms' pose the bind pose is in ("T", "A" or "arms down",
                 ``autorig.readoff.rest_pose``), also for skipped assets; None for a rig without arms or no rig
     arm_angle   ``rig.info["arm_angle"]``: the arms' degrees below the horizontal that pose was read from, or None
+    markers     the markers file the asset was rigged with (``hero.markers.json`` beside ``hero.obj``, relative
+                to the input folder; ``autorig.markers``), also for skipped assets; else None
     thumbnails  {view: path} of its small pictures (WebP; "front" and "side", or "top" and one of those for a
                 flat shape) relative to the output folder, when
                 a run with ``html`` drew them (kept for skipped assets), else {}
@@ -61,6 +63,7 @@ class AssetResult:
     rest_pose: str | None = None
     arm_angle: float | None = None
     confidence_reasons: list[str] = field(default_factory=list)
+    markers: str | None = None
 
     @property
     def failed(self) -> bool:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import base64
 import html
 import os
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from urllib.parse import quote
 
 from ..confidence import STRICT_THRESHOLD
@@ -107,7 +107,8 @@ def _card(asset: AssetResult, rank: int, output_dir: Path, page_dir: Path, low: 
     if not asset.failed:
         link = os.path.relpath(os.path.abspath(output_dir / asset.output), page_dir)
         name = f'<a href="{e(quote(Path(link).as_posix(), errors="surrogateescape"))}">{name}</a>'
-    axes = f" · up {asset.up} · front {asset.front}" if asset.up else ""
+    axes = (f" · up {asset.up} · front {asset.front}" if asset.up else "") + (
+        f" · markers {PurePosixPath(asset.markers).name}" if asset.markers else "")
     lines = [f'<p class="what">{e(asset.template + axes)}</p>']
     if asset.confidence is not None:
         parts = " ".join(f'<span class="part{" weak" if value < WEAK_PART else ""}">{e(part)} {value:.2f}</span>'

@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import TYPE_CHECKING
 
 from ..errors import AutorigError, OutputError
@@ -56,7 +56,7 @@ def kept_result(plan: Plan, entry: dict | None, output_dir: Path) -> AssetResult
                        previous_timings=entry.get("timings") or {}, thumbnails=thumbnails,
                        dropped=entry.get("dropped") or [], hands=entry.get("hands") or {},
                        rest_pose=entry.get("rest_pose"), arm_angle=entry.get("arm_angle"),
-                       confidence_reasons=entry.get("confidence_reasons") or [])
+                       confidence_reasons=entry.get("confidence_reasons") or [], markers=_markers_of(plan))
 
 
 def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, fmt: str, manifest: dict,
@@ -71,7 +71,7 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
                          seconds=outcome.get("seconds", 0.0), timings=outcome.get("timings", {}),
                          dropped=outcome.get("dropped", []), hands=outcome.get("hands", {}),
                          rest_pose=outcome.get("rest_pose"), arm_angle=outcome.get("arm_angle"),
-                         confidence_reasons=outcome.get("confidence_reasons", []))
+                         confidence_reasons=outcome.get("confidence_reasons", []), markers=_markers_of(plan))
     out = output_dir / plan.output
     _remove_thumbnails(output_dir, plan.output)  # of an earlier rig: the new one (or none) replaces them
     if result.status == "ok":
@@ -103,6 +103,12 @@ def store_outcome(plan: Plan, outcome: dict, input_dir: Path, output_dir: Path, 
     else:
         manifest.pop(plan.rel, None)
     return result
+
+
+def _markers_of(plan: Plan) -> str | None:
+    """The markers file an asset is rigged with, relative to the input folder, or None."""
+    name = getattr(plan.options, "markers", None)
+    return None if name is None else str(PurePosixPath(plan.rel).with_name(name))
 
 
 def _write_output(out: Path, data: bytes | dict[str, bytes], fmt: str, source: Path, output_dir: Path) -> None:

@@ -64,7 +64,11 @@ def rig_one(job: Job) -> dict:
                 (source / name).parent.mkdir(parents=True, exist_ok=True)
                 (source / name).write_bytes(data)
             if job.skeleton is None:
-                result = rig(str(mesh), job.template, job.options)
+                options = job.options
+                if getattr(options, "markers", None) is not None:   # its markers file, sent beside the mesh
+                    from dataclasses import replace
+                    options = replace(options, markers=str(mesh.with_name(Path(options.markers).name)))
+                result = rig(str(mesh), job.template, options)
             else:
                 if job.fmt == "pinocchio":
                     # What write_pinocchio would refuse after the work; the command line says so up front.

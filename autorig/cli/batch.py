@@ -80,8 +80,10 @@ def batch_command(input_dir: str, output_dir: str, template: str, skeleton_file:
       skeleton = "hero_rig.glb"       # your own skeleton: only weights
       [files."octopus*"]
       template = "auto"               # a skeleton from the shape itself
-    the nearest file winning; template and skeleton replace each other (docs/tutorials/batch.md). Assets unchanged
-    since the last run (same content, options and autorig version) are skipped unless --force. A failing
+    the nearest file winning; template and skeleton replace each other (docs/tutorials/batch.md). A markers file
+    beside an asset (hero.obj: hero.markers.json, as for autorig MESH --markers) rigs it around its markers: mark
+    the wrong rigs and run the batch again. Assets unchanged since the last run (same content, markers, options
+    and autorig version) are skipped unless --force. A failing
     asset does not stop the others: it is reported, and the exit code is 7. Progress goes to stderr (a bar
     on a terminal, else one line per asset); a summary line to stdout.
     """
@@ -135,5 +137,7 @@ def batch_summary(result, output_dir: str) -> str:
     doubtful = counts["doubtful"]
     doubts = (f"; {doubtful} rig{'s' * (doubtful != 1)} doubtful (probably wrong: look at "
               f"{'them' if doubtful != 1 else 'it'})" if doubtful else "")
+    marked = sum(a.markers is not None for a in result.assets)
+    doubts += f"; {marked} with markers" if marked else ""
     return (f"{len(result.assets)} assets: {counts['ok']} rigged, {counts['failed']} failed, {unchanged}{doubts}, "
             f"{result.seconds:.1f} s -> {output_dir}")

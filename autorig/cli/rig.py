@@ -34,6 +34,12 @@ from .common import (AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMAT
 @click.option("--front", type=click.Choice(AXES, case_sensitive=False), default="auto", show_default=True,
               help="The axis the character faces, or auto to detect it (glTF's +z unless the shape "
                    "clearly says otherwise).")
+@click.option("--markers", "markers_file", metavar="FILE",
+              help="A JSON object of marker names to [x, y, z] points in the mesh's own coordinates: the joints "
+                   "they name are put there and the rest follows. Biped, humanoid: chin, left_wrist, right_wrist, "
+                   "left_elbow, right_elbow, left_knee, right_knee, groin; quadruped, horse: front_left_paw, "
+                   "front_right_paw, back_left_paw, back_right_paw, head, tail_base, withers; any joint name "
+                   "of the template too.")
 @click.option("--strict", is_flag=True,
               help="Write nothing and exit with code 6 when the rig's confidence is below 0.5 (probably wrong); "
                    "not with --template auto, which has no confidence.")
@@ -58,7 +64,7 @@ from .common import (AUTO_TEMPLATE, AXES, FINGERS_HELP, FORMAT_OF_SUFFIX, FORMAT
 @input_options
 @common_options
 def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, convention: str | None, up: str,
-                front: str,
+                front: str, markers_file: str | None,
                 strict: bool, preview: bool, voxels: int, max_segments: int, skeleton_file: str | None,
                 skeleton_scale: str | None, names: str, fingers: bool, verbose: bool, quiet: bool, max_faces: int,
                 allow_outside_paths: bool):
@@ -66,6 +72,10 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     --skeleton, compute skin weights for your own skeleton.
 
     On success prints one line: the mesh, template, joint and vertex counts, time and output path.
+
+    To fix a wrong rig: look at it (autorig preview, or the batch's review page), write where its joints
+    should be into a markers file, e.g. hero.markers.json: {"left_wrist": [0.71, 1.02, -0.02], "chin": [0,
+    1.52, 0.09]} (the mesh's own coordinates), and rig again with --markers hero.markers.json.
     """
     if verbose and quiet:
         raise click.UsageError("--verbose and --quiet cannot be used together")
@@ -74,6 +84,9 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     from ..template import load_template
 
     if skeleton_file is not None or skeleton_scale is not None:
+        if markers_file is not None:
+            raise click.UsageError("--markers place a template's joints; --skeleton keeps your own joints where "
+                                   "they are")
         if fingers:
             raise click.UsageError("--fingers adds finger joints to a template's rig; --skeleton keeps your own "
                                    "joints (give it finger joints instead)")
@@ -86,6 +99,11 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         convention_named(skeleton, convention)   # an unknown convention fails here, before any slow work
     elif convention is not None:
         raise click.UsageError("--convention needs a learned template: --template auto has no conventions")
+    if markers_file is not None:
+        if skeleton == AUTO_TEMPLATE:
+            raise click.UsageError("--markers need a template: --template auto makes its own skeleton")
+        from ..markers import read_markers
+        read_markers(markers_file, skeleton)   # a bad markers file fails here, before any slow work
     if fingers and skeleton == AUTO_TEMPLATE:
         raise click.UsageError("--fingers needs a template with hands: --template auto finds no wrists")
     if names != "template":
@@ -105,7 +123,7 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
         result = rig(str(mesh_path), skeleton, RigOptions(up=up, front=front, voxels=voxels, max_segments=max_segments,
                                                           convention=convention, max_faces=max_faces,
                                                           allow_outside_paths=allow_outside_paths,
-                                                          fingers=fingers))
+                                                          fingers=fingers, markers=markers_file))
         warn_dropped(mesh, result.info)
         confidence = result.info["confidence"]
         if strict and confidence is not None and confidence < STRICT_THRESHOLD:
@@ -121,7 +139,10 @@ def rig_command(mesh: str, template: str, output: str | None, fmt: str | None, c
     if not quiet:
         axes = f"up {result.info['up']}, front {result.info['front']}"
         if result.info["axes_detected"]:
-            axes += " (detected)"
+            axes += " (from the markers)" if len(result.info.get("axes_from_markers", ())) == sum(
+                a == "auto" for a in (up, front)) else " (detected)"
+        if "markers" in result.info:
+            axes += f", {len(result.info['markers'])} markers held"
         if "rest_pose" in result.info:    # autorig.readoff.rest_pose: the arms' pose the bind pose is in
             axes += f", {result.info['rest_pose']} ({degrees(result.info['arm_angle'])})"
         template_name = result.template + (f" ({result.info['convention']})" if "convention" in result.info else "")

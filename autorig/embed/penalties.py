@@ -27,6 +27,9 @@ fat            1.0     1 - radius / largest radius for joints the template calls
 height         0       the root's and branch joints' height against the template's, squared, per 10% of the
                        height: a quadruped's chest sits high in the shoulders, not in the belly's thickest
                        sphere (off in the hand-set weights; ``autorig learn`` weighs it)
+markers        4.0     only with ``--markers`` (``autorig.markers``): a marked joint's sphere's distance from its
+                       marker, and a bone's detour from its path to pass the sphere nearest a marked joint
+                       of its chain, beyond 5% of the height, per 5%: the limbs the markers are in
 distinct       hard    no two joints on one sphere
 =============  ======  ========================================================================================
 """
@@ -48,6 +51,9 @@ FEET_UNIT = 0.05          # height (fraction of the figure) that costs one unit 
 SHARED_FRACTION = 0.4     # paths may share spheres up to this fraction of the bone's length from its parent
 PROMINENCE = 0.08         # how far (height units) a limb's end must stand out to count as an extremity
 FAT_FRACTION = 0.25       # a fat joint's sphere is at least this fraction of the largest sphere's radius
+MARKER_WEIGHT = 4.0       # per MARKER_UNIT of a marked joint's distance from its marker (``autorig.markers``)
+MARKER_UNIT = 0.05        # beyond MARKER_FREE: the embedding chooses the limbs, the later stages place the
+MARKER_FREE = 0.05        # joints within them (and put the marked ones at their markers)
 
 
 @dataclass
@@ -142,7 +148,9 @@ def _merges(from_centre: np.ndarray, neighbours: list[np.ndarray]) -> tuple[np.n
     return np.array(dying, dtype=np.int64), np.array(merged_at, dtype=np.int64), int(peak[find(order[0])])
 
 
-def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
+def build_problem(graph: SphereGraph, template: Template, held=None) -> EmbeddingProblem:
+    """The embedding problem of ``template`` on ``graph``; ``held``: joints the user marked
+    (``autorig.markers.Held``, in the graph's frame), which the marker penalty keeps at their markers."""
     weights = dict(template.penalty_weights or WEIGHTS)
     reduced = template.reduced()
     K, S = len(reduced.joints), len(graph.radii)
@@ -179,6 +187,7 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
 
     tpos = template.positions[reduced.joints]
     vectors = bone_vectors(template, reduced)
+    away = held.to_spheres(graph.centers) if held is not None else None   # [M, S] markers from spheres
     bone_cost, bone_row = [None] * K, [None] * K
     C, D = graph.centers, graph.distances
     for k in range(1, K):
@@ -199,6 +208,8 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
             cost += thinness[cols][None, :]
         if kids[k] and weights["height"] > 0:
             cost += weights["height"] * height_offset(graph, tpos[k, 1])[cols][None, :]
+        if held is not None:
+            cost += _marker_cost(held, graph, reduced.chains[k], rows, cols, away)
         cost[~np.isfinite(path)] = np.inf
         bone_cost[k] = cost
         bone_row[k] = np.full(S, -1, dtype=np.int64)
@@ -207,6 +218,9 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     root_cost[candidates[0]] = thinness[candidates[0]] if reduced.joints[0] in fat else 0.0
     if weights["height"] > 0:
         root_cost[candidates[0]] += weights["height"] * height_offset(graph, tpos[0, 1])[candidates[0]]
+    if held is not None and reduced.joints[0] in held.index[held.whole]:
+        m = int(np.flatnonzero(held.index == reduced.joints[0])[0])
+        root_cost[candidates[0]] += _beyond_free(away[m, candidates[0]] - away[m].min())
 
     names = [template.names[j] for j in reduced.joints]
     mirror_full = template.mirror_of()
@@ -220,6 +234,33 @@ def build_problem(graph: SphereGraph, template: Template) -> EmbeddingProblem:
     shared_ok = np.maximum(first_bone, SHARED_FRACTION * reduced.lengths)
     return EmbeddingProblem(graph, reduced, candidates, bone_cost, bone_row, root_cost, mirror, vectors,
                             is_foot, shared_ok, weights, np.array([j in fat for j in reduced.joints]), tpos[:, 1].copy())
+
+
+def _marker_cost(held, graph: SphereGraph, chain: list[int], rows: np.ndarray, cols: np.ndarray,
+                 away: np.ndarray) -> np.ndarray | float:
+    """[P, C] the marker penalty of a reduced bone with its parent on spheres ``rows`` and its joint on ``cols``:
+    its joint's sphere's distance from its marker (beyond the nearest sphere's), and for each marked joint
+    inside its chain, the detour of the bone's path to pass that joint's nearest sphere (0 when the path goes
+    through it). Only the markers
+    that hold a joint whole: a chin, groin or withers says where along its limb a joint lies, not which limb."""
+    cost = 0.0
+    D = graph.distances
+    for m, joint in enumerate(held.index):
+        if not held.whole[m]:
+            continue
+        if joint == chain[-1]:
+            cost = cost + _beyond_free(away[m, cols][None, :] - away[m].min())
+        elif joint in chain[1:-1]:
+            near = int(np.argmin(away[m]))
+            detour = D[rows, near][:, None] + D[near, cols][None, :] - D[np.ix_(rows, cols)]
+            cost = cost + _beyond_free(np.where(np.isfinite(detour), detour, np.inf))
+    return cost
+
+
+def _beyond_free(distance):
+    """The marker penalty of a distance (height units) from a marker: MARKER_WEIGHT per MARKER_UNIT beyond
+    MARKER_FREE."""
+    return MARKER_WEIGHT * np.maximum(distance - MARKER_FREE, 0.0) / MARKER_UNIT
 
 
 def height_offset(graph: SphereGraph, height: float) -> np.ndarray:
