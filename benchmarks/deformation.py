@@ -296,8 +296,8 @@ def tilt_table(shared: Path):
           f"{TILT_LIMIT:.0f} deg")
     for name, mesh, axes in cases:
         worst, excess, calm, total = head_tilt(mesh, walk, **axes)
-        print(f"  {name:<12}{worst:>7.1f} deg   ({calm}/{total} frames); worst excess over the clip's tilt "
-              f"{excess:.1f} deg")
+        print(f"  {name:<12}{worst:>7.2f} deg   ({calm}/{total} frames); worst excess over the clip's tilt "
+              f"{excess:.2f} deg")
 
 
 def piece_drift(r: Rig, frames, label, body) -> np.ndarray:

@@ -180,3 +180,42 @@ def test_rejects_bad_skeleton():
         bone_heat(V, F, np.zeros((2, 3)), np.array([1, -1]))      # child before its parent
     with pytest.raises(ValueError):
         bone_heat(V, F + len(V), np.zeros((2, 3)), np.array([-1, 0]))
+
+
+def test_a_dense_surface_lies_on_its_own_parts_simplified_copy(monkeypatch):
+    """A lens half sunk into a dense sphere (an eye, a nail): solved on a simplified copy, every sphere vertex
+    takes its heat from the sphere's copy and every lens vertex from the lens's, though the copy's lens is
+    the closest copy triangle to some of the sphere's vertices under it (5 of them before, and 10 the other
+    way)."""
+    from scipy.sparse.csgraph import connected_components
+    import scipy.sparse as sp
+
+    from autorig.weights import attach
+
+    body = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    lens = trimesh.creation.icosphere(subdivisions=3, radius=0.15)
+    lens_v = lens.vertices * [1, 1, 0.2] + [0, 0, 1.02]
+    V = np.vstack([body.vertices, lens_v])
+    F = np.vstack([body.faces, lens.faces + len(body.vertices)])
+    monkeypatch.setattr(attach, "HEAT_MAX_VERTICES", 400)
+    weld, Vw, Fw, coarse, _ = attach.heat_surface(V, F)
+    coarse_V, coarse_F, corners, _ = coarse
+    assert len(coarse_V) < len(Vw) / 4
+    n = len(coarse_V)
+    adj = sp.coo_matrix((np.ones(coarse_F.size), (coarse_F.ravel(), np.roll(coarse_F, 1, axis=1).ravel())),
+                        shape=(n, n))
+    _, part = connected_components(adj, directed=False)
+    sphere_part = np.argmax(np.bincount(part[coarse_F.ravel()]))
+    on_sphere = part[corners].max(axis=1) == sphere_part
+    on_sphere_too = part[corners].min(axis=1) == sphere_part
+    assert np.array_equal(on_sphere, on_sphere_too)                 # each triangle on one part
+    assert on_sphere[weld[:len(body.vertices)]].all()
+    assert not on_sphere[weld[len(body.vertices):]].any()
+    # the lens, a tenth of the height or less, moves rigidly with the sphere under it, on the copy as on the
+    # dense surface
+    joints = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    W = bone_heat(V, F, joints, np.array([-1, 0, 1]), height=5.0)     # the lens: 0.43 across
+    lens_rows = W[len(body.vertices):]
+    assert np.ptp(lens_rows, axis=0).max() < 1e-9
+    under = np.linalg.norm(body.vertices - [0, 0, 1], axis=1) < 0.15
+    np.testing.assert_allclose(lens_rows[0], W[:len(body.vertices)][under].mean(axis=0), atol=0.05)

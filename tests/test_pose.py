@@ -12,7 +12,7 @@ import numpy as np
 import pygltflib
 import pytest
 from click.testing import CliRunner
-from rig_samples import mannequin_bvh, rigged_mannequin
+from rig_samples import CMU_NAMES, mannequin_bvh, mannequin_sample, rigged_mannequin, skeleton_bvh
 from scipy.spatial.transform import Rotation
 from test_exchange import validate
 
@@ -148,6 +148,49 @@ def test_bones_point_where_the_motion_bones_point(rig, motion, animation):
     # The left arm was lowered 60 degrees from the T-pose.
     assert angle(bone(rig, animation, 2, "left_shoulder", "left_elbow"), np.array([1.0, 0, 0])) == \
         pytest.approx(60, abs=3)
+
+
+def test_a_head_leaning_in_the_clips_rest_turns_the_rigs_head_by_the_clips_turn(rig):
+    """The clip's head leans 6 degrees forward at rest (its build, not a pose) and nods 8 degrees forward,
+    then back: the rig's upright head turns 8 degrees from its own rest each time (copying the world
+    direction would make it 14 and 2), while the arms still point where the clip's arms point."""
+    from autorig.template import load_template
+
+    template = load_template("biped")
+    joints = dict(mannequin_sample().joints)
+    head = joints["head"]
+    length = np.linalg.norm(joints["head_end"] - head)
+    lean = np.radians(6.0)
+    joints["head_end"] = head + length * np.array([0.0, np.cos(lean), np.sin(lean)])
+    poses = [{}, {"head": (8.0, 0, 0)}, {"head": (-8.0, 0, 0), "left_shoulder": (0, 0, -60)}]
+    motion = parse_bvh(skeleton_bvh(list(template.names), CMU_NAMES, template.parents, joints, poses,
+                                    [(0, 0, 0)] * 3), name="leaning.bvh")
+    animation = retarget(rig, motion)
+    d = rig.joint("head_end") - rig.joint("head")
+    turned = animation.rotations[:, rig.names.index("head")] @ d
+    assert [angle(t, d) for t in turned] == pytest.approx([0.0, 8.0, 8.0], abs=0.05)
+    assert turned[1] @ np.array([0, 0, 1.0]) > 0 > turned[2] @ np.array([0, 0, 1.0])     # forward, then back
+    assert angle(bone(rig, animation, 2, "left_shoulder", "left_elbow"), np.array([1.0, 0, 0])) == \
+        pytest.approx(60, abs=3)
+
+
+def test_a_head_leaning_in_the_clips_rest_stays_upright_when_the_clip_turns_round(rig):
+    """The same leaning head, the whole body turned half round about the vertical: the rig's head turns about
+    the vertical with it and stays as upright as at rest (the clip's rest lean mapped onto the rig's rest
+    would tip it by twice the lean, 12 degrees, facing back)."""
+    from autorig.template import load_template
+
+    template = load_template("biped")
+    joints = dict(mannequin_sample().joints)
+    head = joints["head"]
+    length = np.linalg.norm(joints["head_end"] - head)
+    joints["head_end"] = head + length * np.array([0.0, np.cos(np.radians(6.0)), np.sin(np.radians(6.0))])
+    motion = parse_bvh(skeleton_bvh(list(template.names), CMU_NAMES, template.parents, joints,
+                                    [{}, {"hips": (0, 180.0, 0)}], [(0, 0, 0)] * 2), name="turning.bvh")
+    animation = retarget(rig, motion)
+    d = rig.joint("head_end") - rig.joint("head")
+    half_turn = Rotation.from_euler("y", 180, degrees=True).as_matrix()
+    assert angle(animation.rotations[1, rig.names.index("head")] @ d, half_turn @ d) < 0.1
 
 
 def test_bone_lengths_stay_the_rigs(rig, animation):

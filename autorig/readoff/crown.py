@@ -12,8 +12,10 @@ Bone heat gives each vertex to its nearest visible bone, and a head joint placed
 of the examples the biped learned from) leaves the face and jaw nearer the neck's bone than the head's. The
 head's weights should begin where the head meets the neck: ``skull_base`` reads, on the body's mid-plane,
 the height between the neck's lower half and the head joint where the body is thinnest from front to back
-(below a jaw, that is below the chin; the top of a neck of even thickness); the heat is then solved with the head's bone starting there, while the
-joint itself, the head's pivot, stays where it is.
+(below a jaw, that is below the chin; the top of a neck of even thickness; not a slit such as parted lips,
+narrower than ``SLIT`` of the height, closed over first: the ogre's open mouth had left its jaw on the
+chest); the heat is then solved with the head's bone starting there, while the joint itself, the head's
+pivot, stays where it is.
 
 Only for templates whose head bone points up (the biped and humanoid); a four-legged head is left alone.
 """
@@ -26,6 +28,7 @@ UPRIGHT = 0.8            # a template's head bone points up if its direction's u
 PROFILE_HEIGHTS = 49     # heights sampled between the neck's lower half and the head joint
 PROFILE_DEPTHS = 121     # points across the body's depth at each height
 THIN = 1.05              # heights no deeper than this x the thinnest (and two samples) are the neck's thin part
+SLIT = 0.01              # a thinner band than this fraction of the height is a slit (an open mouth), not a neck
 
 
 def upright_head(template) -> tuple[int, int, int, int] | None:
@@ -85,10 +88,24 @@ def skull_base(joints: np.ndarray, template, depth, vertices: np.ndarray) -> flo
         return None
     first = np.argmax(inside, axis=1)
     last = PROFILE_DEPTHS - 1 - np.argmax(inside[:, ::-1], axis=1)
-    extent = z[last] - z[first]
+    # a slit (lips parted on the mid-plane, one height thin) is no neck: dips narrower than SLIT closed over
+    step = (joints[head][1] - low) / (PROFILE_HEIGHTS - 1)
+    width = 2 * int(np.ceil(0.5 * SLIT * height / step)) + 1
+    extent = _closing(z[last] - z[first], width)
     # a neck of even thickness is thinnest all along: the head begins at its top
     thin = extent <= THIN * extent.min() + 2 * (z[1] - z[0])
     return float(y[np.flatnonzero(thin)[-1]])
+
+
+def _closing(values: np.ndarray, width: int) -> np.ndarray:
+    """[N] the grey closing of ``values`` [N] over ``width`` (odd) samples, edges repeated: the running maximum,
+    then the running minimum; dips narrower than ``width`` filled, wider ones kept as they are (numpy's
+    sliding windows: scipy.ndimage costs every rig 75 ms to import)."""
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    half = width // 2
+    high = sliding_window_view(np.pad(values, half, mode="edge"), width).max(axis=1)
+    return sliding_window_view(np.pad(high, half, mode="edge"), width).min(axis=1)
 
 
 def heat_joints(joints: np.ndarray, template, base: float | None) -> np.ndarray:

@@ -12,6 +12,13 @@ best-fit rotation over j's mapped children, preferring no twist when they leave 
 frame j's world rotation is then G_b(t) A_j^T, where G_b(t) is b's world rotation away from the motion's rest
 pose: a rig bone points where the matching motion bone points, whatever pose (T, A, legs apart) either
 skeleton was built in, and bone lengths stay the rig's. Unmapped rig joints move rigidly with their parent.
+Bones that stand upright in both rest poses (a spine, a neck, a head: within ``UPRIGHT_CONE`` of up) are
+the exception: both skeletons stand upright at rest, and what separates their directions there is build (a
+capture's head leaning two degrees forward), not pose, so the rig's rest maps to the motion's rest and the
+bone takes the motion's turn away from its rest, G_b(t): a clip's head that nods 10 degrees nods the rig's
+head 10 degrees from its own upright rest, and a walker turning round turns it about the vertical (blended
+linearly to world directions across the cone's edge, G_b(t) A_j^T A_j^w, so that the motion stays
+continuous in both rest poses).
 
 The root is placed by the motion's root, scaled by the ratio of the two hip heights (hips above the ground with
 the legs straight), its first frame's ground position put under the rig's rest root, and the motion's ground
@@ -81,6 +88,9 @@ BIPED_MAP: dict[str, tuple[str, ...]] = _biped_map()
 # Weight of the "frames already agree" prior in each joint's alignment: only decides what the bones leave free
 # (the twist about a single bone, or about a line of collinear ones), never overrides them.
 _PRIOR = 1e-6
+# Degrees from up: bones within the first angle in both rest poses (a standing spine, neck, head) copy the
+# motion's turn away from its rest; beyond the second, world directions; linear in between.
+UPRIGHT_CONE = (20.0, 35.0)
 
 
 @dataclass
@@ -185,8 +195,10 @@ def retarget(rig: Rig, motion: Motion, mapping: dict[str, str] | None = None, up
     for j in range(J):
         p = parents[j]
         if j in source:
-            align[j] = _alignment(j, source, rig, motion, motion_rest, to_rig, align[p] if p >= 0 else np.eye(3))
-            rotations[:, j] = motion_r[:, source[j]] @ align[j].T
+            pairs = _pairs(j, source, rig, motion, motion_rest, to_rig)
+            align[j] = _alignment(pairs, align[p] if p >= 0 else np.eye(3))
+            rotations[:, j] = motion_r[:, source[j]] @ align[j].T @ _rest_to_rest(align[j], _upright(pairs,
+                                                                                              rig_frame[1]))
         else:
             align[j] = align[p] if p >= 0 else np.eye(3)
             rotations[:, j] = rotations[:, p] if p >= 0 else np.eye(3)
@@ -212,13 +224,12 @@ def retarget(rig: Rig, motion: Motion, mapping: dict[str, str] | None = None, up
                      mapping={rig.names[j]: motion.names[b] for j, b in source.items()})
 
 
-def _alignment(j: int, source: dict[int, int], rig: Rig, motion: Motion, motion_rest: np.ndarray,
-               to_rig: np.ndarray, inherited: np.ndarray) -> np.ndarray:
-    """Rotation [3, 3] taking motion joint source[j]'s rest bones onto rig joint j's rest bones.
+def _pairs(j: int, source: dict[int, int], rig: Rig, motion: Motion, motion_rest: np.ndarray,
+           to_rig: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """[(rig rest bone [3], motion rest bone [3])] of rig joint j and motion joint source[j], in the rig's frame.
 
     The bones are those to j's mapped children; if it has none but j has one child and the motion joint one
-    continuation (a single child joint or an End Site), that pair; if still none, ``inherited`` (the parent's
-    alignment), so j keeps the parent's correspondence.
+    continuation (a single child joint or an End Site), that pair. Zero-length bones are left out.
     """
     rest = np.asarray(rig.joints, dtype=np.float64)
     children = [int(c) for c in np.flatnonzero(np.asarray(rig.parents) == j)]
@@ -229,7 +240,13 @@ def _alignment(j: int, source: dict[int, int], rig: Rig, motion: Motion, motion_
                                                                   else [])
         if len(ends) == 1:
             pairs = [(rest[children[0]] - rest[j], to_rig @ ends[0])]
-    pairs = [(r, m) for r, m in pairs if np.linalg.norm(r) > 1e-12 and np.linalg.norm(m) > 1e-12]
+    return [(r, m) for r, m in pairs if np.linalg.norm(r) > 1e-12 and np.linalg.norm(m) > 1e-12]
+
+
+def _alignment(pairs: list[tuple[np.ndarray, np.ndarray]], inherited: np.ndarray) -> np.ndarray:
+    """Rotation [3, 3] taking the motion's rest bones onto the rig's (``_pairs``), preferring no twist where
+    they leave it free; without bones, ``inherited`` (the parent's alignment), so the joint keeps the parent's
+    correspondence."""
     if not pairs:
         return inherited
     H = _PRIOR * np.eye(3)
@@ -238,6 +255,28 @@ def _alignment(j: int, source: dict[int, int], rig: Rig, motion: Motion, motion_
     U, _, Vt = np.linalg.svd(H)
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
     return U @ D @ Vt
+
+
+def _upright(pairs: list[tuple[np.ndarray, np.ndarray]], up: np.ndarray) -> float:
+    """How much a joint's bones stand upright in both rest poses, 0 to 1: 1 when every bone of ``pairs``, the
+    rig's and the motion's, is within ``UPRIGHT_CONE[0]`` degrees of ``up``, 0 when one is ``UPRIGHT_CONE[1]``
+    or more away, linear in the widest angle between (continuous in the rest poses)."""
+    if not pairs:
+        return 0.0
+    cosines = [v @ up / np.linalg.norm(v) for pair in pairs for v in pair]
+    widest = float(np.degrees(np.arccos(np.clip(min(cosines), -1.0, 1.0))))
+    lo, hi = UPRIGHT_CONE
+    return float(np.clip((hi - widest) / (hi - lo), 0.0, 1.0))
+
+
+def _rest_to_rest(align: np.ndarray, amount: float) -> np.ndarray:
+    """``amount`` [3, 3] of ``align`` (a joint's alignment), by angle about its axis, undoing that much of it
+    before the motion's rotation: 1, the rig's rest maps to the motion's rest (the joint turns by the motion's
+    own rotation); 0, world directions copied."""
+    if amount <= 0.0:
+        return np.eye(3)
+    from scipy.spatial.transform import Rotation
+    return Rotation.from_rotvec(amount * Rotation.from_matrix(align).as_rotvec()).as_matrix()
 
 
 def _motion_frame(motion: Motion, rig_names: list[str], source: dict[int, int]) -> np.ndarray:
