@@ -85,6 +85,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     from .embed.convention import convention_named, convention_shift, in_convention
     from .readoff.crown import crown_tip, heat_joints, skull_base
     from .readoff.landmarks import neck_fraction
+    from .readoff.midline import centred
     from .input.mesh import prepare
     from .embed.orient import centre_on_mid_plane, detect_orientation, reorient, working_axes
     from .embed.placement import learned_placement
@@ -135,7 +136,9 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
             joints = read_rump(joints, template, field.depth, surface_of(field)[0])
             joints = keep(read_head(joints, template, field.depth, surface_of(field)[0]))
     with stage("tips"):
-        joints = keep(crown_tip(joints, template, prepared.vertices, field.depth))   # head_end up to the crown
+        # mid-plane joints in the middle of the body's chord across them, then head_end up to the crown
+        joints = centred(joints, template, field.depth, prepared.work_vertices)
+        joints = keep(crown_tip(joints, template, prepared.vertices, field.depth))
     fingers = None
     if template.fingers or options.fingers:
         from .hands.stage import read_fingers, skin_with_fingers

@@ -49,18 +49,11 @@ def test_the_quadruped_template_weighs_the_cue():
     assert template.learned_from["head_tail"]["weight"] == pytest.approx(template.head_tail, abs=1e-3)
 
 
-# Known (issue 37): since tips are read off the surface, the dog turned Z-up puts its front elbows 9.2 % of the
-# height from where the upright dog has them (the legs stage's bend read-off flips on a near-tie between two
-# bends; the field is sampled in the file's own axes, so the two discretizations differ). Strict: it fails
-# loudly once fixed.
-ZUP_DOG = pytest.mark.xfail(strict=True, reason="issue 37: the dog turned Z-up flips its elbows' bend (9.2 %)")
 TURNED = [pytest.param(*t, id=t[0]) for t in TURNS]
 
 
 @pytest.mark.parametrize("name, turn, axes, back", TURNED)
-def test_a_turned_animal_gets_the_same_rig(request, animal, name, turn, axes, back):
-    if name == "Z up, facing -y" and request.node.callspec.id.startswith("dog"):
-        request.applymarker(ZUP_DOG)
+def test_a_turned_animal_gets_the_same_rig(animal, name, turn, axes, back):
     given = autorig.rig((animal.vertices, animal.faces), "quadruped", autorig.RigOptions(up="y", front="z"))
     turned = autorig.rig((turn(animal.vertices), animal.faces), "quadruped")
     assert (turned.info["up"], turned.info["front"]) == axes

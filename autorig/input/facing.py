@@ -158,7 +158,10 @@ def edge_graph(V: np.ndarray, F: np.ndarray):
     (plus 1e-12, so that coincident corners stay joined): for geodesic distances and connected pieces."""
     import scipy.sparse as sp
 
-    e = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+    pairs = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]).astype(np.int64), axis=1)
+    # one integer per edge: a 1-D unique is many times faster than np.unique(axis=0), in the same order
+    keys = np.unique(pairs[:, 0] * max(len(V), 1) + pairs[:, 1])
+    e = np.stack([keys // max(len(V), 1), keys % max(len(V), 1)], axis=1)
     w = np.linalg.norm(V[e[:, 0]] - V[e[:, 1]], axis=1) + 1e-12
     return sp.csr_matrix((np.concatenate([w, w]), (np.concatenate([e[:, 0], e[:, 1]]),
                                                    np.concatenate([e[:, 1], e[:, 0]]))), shape=(len(V), len(V)))

@@ -31,7 +31,11 @@ FLAT_TOLERANCE = 1e-6
 # Triangles smaller than this (in units of size squared) carry no usable geometry: their angles, normals and
 # cotangent weights are numerically meaningless.
 AREA_TOLERANCE = 1e-12
-# Triangles the discretization works with at most; denser working meshes are simplified for it.
+# The discretization reads a working mesh of up to FULL_FACES triangles as it is, and a denser one simplified
+# to COARSE_FACES. Quadric decimation retessellates the whole copy when any coordinate moves (a re-export's
+# float rounding moved all of the ogre's spheres and a joint by 8 % of the height): game characters and most
+# scans are read whole, so that they get the same rig after a re-export; a denser scan is simplified for speed.
+FULL_FACES = 150_000
 COARSE_FACES = 6_000
 
 
@@ -346,11 +350,12 @@ class PreparedMesh:
         return FrameChange(rotation, ratio, -self.scale * self.rotation @ self.offset
                            + ratio * rotation @ (other.scale * other.rotation @ other.offset))
 
-    def coarse(self, max_faces: int = COARSE_FACES) -> tuple[np.ndarray, np.ndarray]:
-        """The working mesh, simplified to at most ``max_faces`` triangles when it has more:
-        (vertices [W', 3], faces [G', 3]) in the canonical frame. Dense scans carry far more triangles than
-        the skeleton's discretization can use; quadric decimation (fast-simplification) keeps the shape."""
-        if len(self.work_faces) <= max_faces:
+    def coarse(self, max_faces: int = COARSE_FACES, whole: int = FULL_FACES) -> tuple[np.ndarray, np.ndarray]:
+        """The working mesh as it is when it has at most ``whole`` triangles, else simplified to at most
+        ``max_faces``: (vertices [W', 3], faces [G', 3]) in the canonical frame. Dense scans carry far more
+        triangles than the skeleton's discretization can use; quadric decimation (fast-simplification) keeps
+        the shape, but its result jumps when the mesh moves by a rounding error, and the rig with it."""
+        if len(self.work_faces) <= max(max_faces, whole):
             return self.work_vertices, self.work_faces
         import fast_simplification
         vertices, faces = fast_simplification.simplify(self.work_vertices, self.work_faces.astype(np.int32),

@@ -69,8 +69,8 @@ def crown_tip(joints: np.ndarray, template, vertices: np.ndarray, depth) -> np.n
 def skull_base(joints: np.ndarray, template, depth, vertices: np.ndarray) -> float | None:
     """The height (canonical y) where the head's weights begin: on the mid-plane (x of the neck joint), the
     height between halfway from the neck's parent to the neck and the head joint where the inside of the body
-    is shallowest from front to back (within a quarter of the height of the neck), the highest of the heights
-    as shallow as that (within ``THIN`` and two samples); None for a template
+    is shallowest from front to back (within a quarter of the height of the neck): the top of the lowest run
+    of heights as shallow as that (within ``THIN`` and two samples); None for a template
     without an upright head or where the body is not found there."""
     found = upright_head(template)
     if found is None:
@@ -92,9 +92,12 @@ def skull_base(joints: np.ndarray, template, depth, vertices: np.ndarray) -> flo
     step = (joints[head][1] - low) / (PROFILE_HEIGHTS - 1)
     width = 2 * int(np.ceil(0.5 * SLIT * height / step)) + 1
     extent = _closing(z[last] - z[first], width)
-    # a neck of even thickness is thinnest all along: the head begins at its top
+    # a neck of even thickness is thinnest all along: the head begins at the top of the lowest thin run (an
+    # open mouth above it can be as thin: which of the two is the higher would be a near-tie)
     thin = extent <= THIN * extent.min() + 2 * (z[1] - z[0])
-    return float(y[np.flatnonzero(thin)[-1]])
+    start = int(np.argmax(thin))
+    stop = start + (int(np.argmin(thin[start:])) if not thin[start:].all() else len(thin) - start)
+    return float(y[stop - 1])
 
 
 def _closing(values: np.ndarray, width: int) -> np.ndarray:

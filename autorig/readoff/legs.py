@@ -276,9 +276,9 @@ def limb_joints(template) -> np.ndarray:
 
 
 def surface_of(field) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices [W, 3], faces [G, 3]) of the surface a distance field was built on (the working mesh, at
-    most ``mesh.COARSE_FACES`` triangles), in the field's frame: what the rig's legs are cut from, so that a
-    dense scan costs no more to cut than the skeleton stages' copy."""
+    """(vertices [W, 3], faces [G, 3]) of the surface a distance field was built on (the working mesh, as it
+    is or simplified: ``PreparedMesh.coarse``), in the field's frame: what the rig's legs are cut from, so
+    that a dense scan costs no more to cut than the skeleton stages' copy."""
     return field.surface_vertices, getattr(field, "base", field).surface.faces
 
 

@@ -1,0 +1,55 @@
+"""Mid-plane joints centred across the body: a continuous rule for the side-to-side coordinate.
+
+A joint the template puts on the body's mid-plane (the hips, the spine, the neck, the head, a tail) lies in
+the trunk's medial *sheet*: every point of a flattened torso's mid-surface is as centred as its neighbour in
+depth, so which sphere the embedding takes there is a near-tie that the smallest change of the mesh can flip,
+and the joint jumps sideways with it (a hippopotamus's head by 3.4 % of the height under 1e-6 noise). The
+side-to-side coordinate is read off the shape instead: the middle of the chord across the body, along the
+left-right axis, through the joint, each point of the chord weighted by its depth squared (the chord's ends
+weigh nothing, so the middle moves as little as the surface does). A symmetric body's chord is centred on its
+mid-plane; a tail swung to one side keeps its own middle.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+SAMPLES = 257          # samples of the depth along each chord, across the whole box
+AXIS = 0               # the canonical frame's left-right axis
+
+
+def chord_middle(depth, point: np.ndarray, lo: float, hi: float, samples: int = SAMPLES) -> float | None:
+    """The middle, along x, of the inside run of the line through ``point`` [3] parallel to x that holds the
+    point: the run's samples' mean x weighted by their depth squared (0 at the run's ends, so the sum moves as
+    little as the surface does, and a thin part the run reaches at one side, an arm beside a neck, weighs
+    little). None when the point lies outside (which run to take would be a choice, not a reading).
+    depth: the signed depth of points [N, 3] (> 0 inside); lo, hi: the box's extent along x."""
+    xs = np.linspace(lo, hi, samples)
+    line = np.repeat(np.asarray(point, float)[None, :], samples, axis=0)
+    line[:, AXIS] = xs
+    d = depth(line)
+    i = int(np.clip(np.searchsorted(xs, point[AXIS]), 1, samples - 1))
+    i = i if d[i] >= d[i - 1] else i - 1          # the nearer-inside of the two samples around the point
+    if d[i] <= 0 or depth(np.asarray(point, float)[None, :])[0] <= 0:
+        return None
+    inside = d > 0
+    a = i - int(np.argmin(inside[i::-1])) + 1 if not inside[:i + 1].all() else 0
+    b = i + int(np.argmin(inside[i:])) if not inside[i:].all() else samples
+    w = d[a:b] ** 2
+    return float(xs[a:b] @ w / w.sum())
+
+
+def centred(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.ndarray:
+    """[J, 3] ``joints`` (canonical frame) with each mid-plane joint but the tips (which lie on the surface,
+    where the chord vanishes) moved along x to the middle of the body's chord through it. depth: the field's
+    signed depth of points [N, 3]; vertices [V, 3] the mesh's, in the same frame (the chords span their box)."""
+    out = np.array(joints, float)
+    mirror = template.mirror_of()
+    margin = 0.02 * float(np.ptp(vertices[:, AXIS]))
+    lo, hi = float(vertices[:, AXIS].min()) - margin, float(vertices[:, AXIS].max()) + margin
+    for j in range(len(out)):
+        if mirror[j] != j or template.is_tip(j):
+            continue
+        x = chord_middle(depth, out[j], lo, hi)
+        if x is not None:
+            out[j, AXIS] = x
+    return out
