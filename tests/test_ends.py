@@ -48,7 +48,9 @@ def test_the_bulk_cue_finds_the_cartoon_head_the_outline_misses(cartoon):
 def test_the_bulk_cue_turns_with_the_shape(cartoon):
     vertices, faces, _ = cartoon
     bulk = _cues(vertices, faces)[1]
-    assert _cues(vertices, faces, "y", "-z")[1] == pytest.approx(-bulk)
+    # Not to the bit: the medial samples on the octree's centre planes are read from the planes' lower sides
+    # (discretize.medial._off_the_centre_planes), which a reversed front mirrors (0.07 % here).
+    assert _cues(vertices, faces, "y", "-z")[1] == pytest.approx(-bulk, rel=0.01)
     # The same shape in a file facing -z, read in its own right frame, says the same.
     assert _cues(vertices * [-1, 1, -1], faces, "y", "-z")[1] == pytest.approx(bulk, abs=0.05)
 
