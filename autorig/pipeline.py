@@ -109,12 +109,22 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         from .markers import marker_frame
         up, front = marker_frame(markers, template, vertices[np.unique(faces)], up, front)
     with stage("prepare"):
-        prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True)
+        prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True,
+                           unit=None if up == "auto" else up)
         heat_surface = start_heat_surface(prepared)   # a dense mesh's heat surface, made beside the skeleton
     field, graph = discretize(prepared, stage)
     with budget("the embedding's search", SEARCH_SECONDS):   # the orientation's searches and the embedding's
         with stage("orientation"):
             frame = detect_orientation(prepared, field, graph, template, up, front)
+        if up == "auto" and frame.up.lstrip("+-") != "y":
+            # The field is measured in heights: detected up not the working frame's, it is discretized again in
+            # the units of the up found, as it is when that up is given (the same rig either way).
+            with stage("prepare"):
+                prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True,
+                                   unit=frame.up)
+            field, graph = discretize(prepared, stage)
+    with budget("the embedding's search", SEARCH_SECONDS):
+        with stage("orientation"):
             prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
         held = _held(markers, template, prepared, vertices, faces, options)
         # Marked joints are put at their markers once the joints are in the convention the markers are in (the
@@ -421,5 +431,5 @@ def _stage_timer(timings: dict[str, float]):
     def stage(name: str):
         start = time.perf_counter()
         yield
-        timings[name] = time.perf_counter() - start
+        timings[name] = timings.get(name, 0.0) + time.perf_counter() - start   # a stage run twice: both
     return stage

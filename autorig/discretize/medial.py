@@ -66,10 +66,22 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     a = field.origin + a_idx * field.finest
     b = field.origin + b_idx * field.finest
     ca, cb = field.corner_nearest[ia], field.corner_nearest[ib]
-    ca, cb = _off_the_centre_planes(field, a_idx, b_idx, axis, a, b, ca, cb)
+    cos_turn = np.cos(np.radians(min_angle_degrees))
+    points, radii = [], []
+    for signs, rows in _plane_sides(field, a_idx, axis):
+        sa, sb = _off_the_centre_planes(field, a_idx[rows], b_idx[rows], axis[rows], a[rows], b[rows],
+                                        ca[rows], cb[rows], signs)
+        p, r = _crossings(a[rows], b[rows], sa, sb, da[rows], db[rows], cos_turn)
+        points.append(p)
+        radii.append(r)
+    return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii))
+
+
+def _crossings(a, b, ca, cb, da, db, cos_turn):
+    """Where the edges a-b cross the medial surface of the nearest points ca, cb: (points, radii)."""
     ga = (a - ca) / da[:, None]
     gb = (b - cb) / db[:, None]
-    turned = np.einsum("ij,ij->i", ga, gb) < np.cos(np.radians(min_angle_degrees))
+    turned = np.einsum("ij,ij->i", ga, gb) < cos_turn
     a, b, ca, cb = a[turned], b[turned], ca[turned], cb[turned]
     # Point x = a + t (b - a) equally far from ca and cb: 2 x.(cb - ca) = |cb|^2 - |ca|^2.
     n = cb - ca
@@ -80,7 +92,7 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     ok = np.isfinite(t) & (t >= 0) & (t <= 1)
     points = a[ok] + t[ok, None] * (b[ok] - a[ok])
     radii = np.linalg.norm(points - ca[ok], axis=1)
-    return MedialSamples(points=points, radii=radii)
+    return points, radii
 
 
 def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
@@ -99,7 +111,14 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
         raise RigFailedError("the mesh encloses no volume that a skeleton could sit in (is it an open sheet, "
                              "or much thinner than it is wide?)")
     points, radii = samples.points[keep_mask], samples.radii[keep_mask]
-    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], -radii))  # deterministic ties
+    # Largest first, but radii within RADIUS_STEP of each other count as equal and go innermost first. Samples
+    # often tie on their radius (all along a prism-shaped limb of a low-poly mesh), and which of them is
+    # visited first decides which are kept, and through what each covers, the whole packing: by coordinates,
+    # a rounding error's worth of noise reorders them (a 256-triangle figure's 141 of 535 spheres moved). By
+    # distance from the middle of the samples' box the order is the same for the mesh turned or re-exported.
+    middle = (points.min(axis=0) + points.max(axis=0)) / 2
+    inward = np.linalg.norm(points - middle, axis=1)
+    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], inward, -np.floor(radii / RADIUS_STEP)))
     points, radii = points[order], radii[order]
     tree = cKDTree(points)
     covered = np.zeros(len(points), dtype=bool)
@@ -113,28 +132,48 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
     return Spheres(centers=points[kept], radii=radii[kept])
 
 
+RADIUS_STEP = 1e-3   # heights: medial radii this close are visited as equal (``pack_spheres``)
 NUDGE = 0.05   # of the finest cell: how far off a centre-plane corner its edge's nearest point is read
 
 
-def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, cb):
+def _plane_sides(field: DistanceField, a_idx, axis):
+    """(signs [3], rows) pairs: from which side (-1 or +1 along each axis) the edges ``rows`` read the centre
+    planes they lie in. Every edge reads from the lower sides; an edge lying in a centre plane reads from its
+    upper side too (in each combination, for an edge in two planes), so that the samples are the same whichever
+    way the body is turned or mirrored in the octree.
+    """
+    centre = 2 ** (field.max_level - 1)
+    in_plane = a_idx == centre                                  # [E, 3]; b differs from a along its axis only
+    in_plane[np.arange(len(axis)), axis] = False
+    for code in range(8):
+        signs = np.array([1.0 if code >> k & 1 else -1.0 for k in range(3)])
+        upper = signs > 0
+        # The edges for which this combination differs from the all-lower one on every upper axis.
+        rows = np.flatnonzero(np.all(in_plane[:, upper], axis=1)) if code else np.arange(len(axis))
+        if len(rows):
+            yield signs, rows
+
+
+def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, cb, signs=(-1.0, -1.0, -1.0)):
     """(ca, cb) with the nearest surface point of each edge end that lies on one of the octree's three centre
     planes read a little off the plane instead (``NUDGE`` of the finest cell): beyond the edge's end for the
-    plane across the edge, to the plane's lower side for a plane the edge lies in.
+    plane across the edge, to the side ``signs`` gives (per axis) for a plane the edge lies in.
 
     A mirror-symmetric body's mid-plane is the octree's centre plane (the cube is centred on the body's box),
     so every corner on it is equally far from the left and the right side: which of the two its stored nearest
     point lies on is a tie that the smallest change of the mesh flips (a 0 A.D. rhino's 814 mid-plane corners
     under 1e-6 noise), and with it whether the edges at it cross the medial surface, the samples there and the
     spheres packed from them. Read from beyond the end, an edge across the plane sees the crease at the plane
-    whatever the tie; an edge in the plane reads both its ends from one side, so it finds only the creases
-    that side has (its mirror image's are the same on a symmetric body).
+    whatever the tie; an edge in the plane is read from each side in turn (``_plane_sides``), so that turning
+    or mirroring the body, which swaps the sides, gives the same samples.
     """
     centre = 2 ** (field.max_level - 1)
     rows = np.arange(len(axis))
+    side = np.asarray(signs, dtype=float)
     out = []
     for idx, ends, nearest, sign in ((a_idx, a, ca, -1.0), (b_idx, b, cb, 1.0)):
         on = idx == centre                       # [E, 3] on the centre plane normal to each axis
-        nudge = np.where(on, -1.0, 0.0)          # in the plane: to its lower side
+        nudge = np.where(on, side[None, :], 0.0)  # in the plane: to the side asked for
         nudge[rows, axis] = np.where(on[rows, axis], sign, 0.0)   # across it: beyond the edge's end
         moved = np.flatnonzero(on.any(axis=1))
         nearest = nearest.copy()

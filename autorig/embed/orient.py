@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..input.mesh import spread
 from .ends import FEET_BAND
 from .search import MAX_EXPANSIONS
 
@@ -71,8 +72,8 @@ def mirror_errors(surface, samples: int = 1000) -> np.ndarray:
     bounding-box centre normal to x, y and z in turn (mean distance / bounding-box diagonal).
     ``surface`` is a ``SurfaceQuery`` in a frame whose axes are the input's (any scale and origin)."""
     vertices = surface.vertices
-    # Evenly spread vertices: enough to rank three axes, and each costs a distance query per axis.
-    points = vertices[np.unique(np.linspace(0, len(vertices) - 1, samples).astype(np.int64))]
+    # Spread vertices: enough to rank three axes, and each costs a distance query per axis.
+    points = vertices[spread(vertices, samples)]
     centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
     diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0)))
     out = np.zeros(3)
@@ -108,7 +109,7 @@ def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_P
 
     distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices."""
     from scipy.optimize import minimize_scalar
-    points = vertices[np.unique(np.linspace(0, len(vertices) - 1, samples).astype(np.int64))]
+    points = vertices[spread(vertices, samples)]
     lo, hi = float(vertices[:, axis].min()), float(vertices[:, axis].max())
     centre, width = (lo + hi) / 2, hi - lo
 
