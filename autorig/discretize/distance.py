@@ -79,6 +79,9 @@ class SurfaceQuery:
         return sign * distance, nearest
 
 
+ON_GRID = 1e-7   # finest edges: a point this near a plane of the finest grid lies on it (``_finest_leaf``)
+
+
 @dataclass
 class DistanceField:
     """Octree signed distance field.
@@ -137,7 +140,7 @@ class DistanceField:
         dist = np.linalg.norm(back, axis=1)
         depth[outside] = -dist - self.finest
         gradient[outside] = back / np.maximum(dist, 1e-12)[:, None]
-        cell = self._locate(rel[in_cube])
+        cell = self._finest_leaf(rel[in_cube])
         edge = 2.0 ** (self.max_level - self.leaf_level[cell])
         t = np.clip((rel[in_cube] - self.leaf_index[cell]) / edge[:, None], 0.0, 1.0)
         values = self.leaf_values[cell]
@@ -149,6 +152,35 @@ class DistanceField:
         for axis, others in enumerate((fy * fz, fx * fz, fx * fy)):                        # [N, 8] each
             gradient[in_cube, axis] = np.einsum("nc,nc->n", others * signs[:, axis], values) / (edge * self.finest)
         return depth, gradient
+
+    def _finest_leaf(self, rel: np.ndarray) -> np.ndarray:
+        """Leaf index [N] of each point given in finest-edge units (inside the cube): on a face, edge or corner
+        of the finest grid, the finest of the leaves that touch it. A leaf next to smaller ones interpolates
+        its face from its own corners only, so the depth there depends on which side the point is taken
+        from: by ``floor`` the upper side, which turning the mesh (a vertex order, a mirrored file) makes the
+        lower one, and a sphere graph's edge in a thin finger was there on one side and not the other."""
+        cell = self._locate(rel)
+        on = np.abs(rel - np.rint(rel)) < ON_GRID                     # [N, 3]
+        near = np.flatnonzero(on.any(axis=1))
+        if not len(near):
+            return cell
+        best = None
+        for code in range(8):
+            step = np.array([-(code >> k & 1) for k in range(3)], dtype=np.float64)   # 0 or -1 per axis
+            use = np.all(on[near] | (step == 0), axis=1)     # only across the planes the point lies on
+            if not use.any():
+                continue
+            rows = near[use]
+            side = np.where(on[rows], np.rint(rel[rows]) + 0.5 + step, rel[rows])   # inside the cell that side
+            side = np.minimum(np.maximum(side, 0.0), 2 ** self.max_level - 0.5)
+            other = self._locate(side)
+            if best is None:        # code 0, the upper sides: every point has it
+                best = other
+                continue
+            finer = self.leaf_level[other] > self.leaf_level[best[use]]
+            best[np.flatnonzero(use)[finer]] = other[finer]
+        cell[near] = best
+        return cell
 
     def _locate(self, rel: np.ndarray) -> np.ndarray:
         """Leaf index [N] containing each point given in finest-edge units (inside the cube)."""

@@ -95,8 +95,12 @@ def _crossings(a, b, ca, cb, da, db, cos_turn):
     return points, radii
 
 
-def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
+def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.ndarray | None = None) -> Spheres:
     """Greedy packing: visit samples by decreasing radius; keep one if no kept sphere contains its centre.
+
+    rotation: [3, 3] from the samples' frame to the character's own (x left, y up, z front), when known:
+    samples equal in radius and in distance from the middle (a symmetric body's mirror pairs) are visited in
+    the order of their coordinates in that frame, the same however the mesh was turned in its file.
 
     min_radius: ignore samples thinner than this (in height units). The rig passes the field's finest cell
     edge: a thinner sphere sits in a crease the field cannot resolve, most often a bump of a scanned surface.
@@ -117,8 +121,9 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
     # a rounding error's worth of noise reorders them (a 256-triangle figure's 141 of 535 spheres moved). By
     # distance from the middle of the samples' box the order is the same for the mesh turned or re-exported.
     middle = (points.min(axis=0) + points.max(axis=0)) / 2
-    inward = np.linalg.norm(points - middle, axis=1)
-    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], inward, -np.floor(radii / RADIUS_STEP)))
+    inward = np.sort((points - middle) ** 2, axis=1).sum(axis=1)   # summed in an order the axes' cannot change
+    own = points if rotation is None else points @ np.asarray(rotation, dtype=np.float64).T
+    order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], inward, -np.floor(radii / RADIUS_STEP)))
     points, radii = points[order], radii[order]
     tree = cKDTree(points)
     covered = np.zeros(len(points), dtype=bool)
