@@ -55,6 +55,13 @@ class SurfaceQuery:
             return np.zeros(0)
         return np.sqrt(self._tree.squared_distance(self.vertices, self.faces, points)[0])
 
+    def nearest(self, points: np.ndarray) -> np.ndarray:
+        """[N, 3] the nearest surface point of each point (no winding numbers: cheaper than ``closest``)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) == 0:
+            return np.zeros((0, 3))
+        return self._tree.squared_distance(self.vertices, self.faces, points)[2]
+
     def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
                 known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point.

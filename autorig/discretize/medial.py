@@ -67,11 +67,26 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     b = field.origin + b_idx * field.finest
     ca, cb = field.corner_nearest[ia], field.corner_nearest[ib]
     cos_turn = np.cos(np.radians(min_angle_degrees))
-    points, radii = [], []
-    for signs, rows in _plane_sides(field, a_idx, axis):
-        sa, sb = _off_the_centre_planes(field, a_idx[rows], b_idx[rows], axis[rows], a[rows], b[rows],
-                                        ca[rows], cb[rows], signs)
-        p, r = _crossings(a[rows], b[rows], sa, sb, da[rows], db[rows], cos_turn)
+    # Each side's reading of the centre planes, its nearest points asked for all at once (a query's fixed cost,
+    # the tree's arrays handed to libigl, is most of the cost of a few hundred points).
+    sides = [(rows, _off_the_centre_planes(field, a_idx[rows], b_idx[rows], axis[rows], a[rows], b[rows], signs))
+             for signs, rows in _plane_sides(field, a_idx, axis)]
+    queries = [q for _, ends in sides for _, q in ends]
+    if queries:     # a corner is the end of up to six edges and read alike from several sides: once each
+        unique, inverse = np.unique(np.concatenate(queries), axis=0, return_inverse=True)
+        found = field.surface.nearest(unique)[inverse.reshape(-1)]
+    else:
+        found = np.zeros((0, 3))
+    found = np.split(found, np.cumsum([len(q) for q in queries])[:-1]) if queries else []
+    points, radii, k = [], [], 0
+    for rows, ends in sides:
+        near = []
+        for (moved, _), stored in zip(ends, (ca[rows], cb[rows])):
+            stored = stored.copy()
+            stored[moved] = found[k]
+            near.append(stored)
+            k += 1
+        p, r = _crossings(a[rows], b[rows], near[0], near[1], da[rows], db[rows], cos_turn)
         points.append(p)
         radii.append(r)
     return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii))
@@ -159,10 +174,11 @@ def _plane_sides(field: DistanceField, a_idx, axis):
             yield signs, rows
 
 
-def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, cb, signs=(-1.0, -1.0, -1.0)):
-    """(ca, cb) with the nearest surface point of each edge end that lies on one of the octree's three centre
-    planes read a little off the plane instead (``NUDGE`` of the finest cell): beyond the edge's end for the
-    plane across the edge, to the side ``signs`` gives (per axis) for a plane the edge lies in.
+def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, signs=(-1.0, -1.0, -1.0)):
+    """For each end of the edges (a, then b): (rows [M], points [M, 3]) of the ends that lie on one of the
+    octree's three centre planes, and the points their nearest surface point is to be read at instead of
+    theirs: a little off the plane (``NUDGE`` of the finest cell), beyond the edge's end for the plane across
+    the edge, to the side ``signs`` gives (per axis) for a plane the edge lies in.
 
     A mirror-symmetric body's mid-plane is the octree's centre plane (the cube is centred on the body's box),
     so every corner on it is equally far from the left and the right side: which of the two its stored nearest
@@ -176,13 +192,10 @@ def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, c
     rows = np.arange(len(axis))
     side = np.asarray(signs, dtype=float)
     out = []
-    for idx, ends, nearest, sign in ((a_idx, a, ca, -1.0), (b_idx, b, cb, 1.0)):
+    for idx, ends, sign in ((a_idx, a, -1.0), (b_idx, b, 1.0)):
         on = idx == centre                       # [E, 3] on the centre plane normal to each axis
         nudge = np.where(on, side[None, :], 0.0)  # in the plane: to the side asked for
         nudge[rows, axis] = np.where(on[rows, axis], sign, 0.0)   # across it: beyond the edge's end
         moved = np.flatnonzero(on.any(axis=1))
-        nearest = nearest.copy()
-        if len(moved):
-            nearest[moved] = field.surface.closest(ends[moved] + nudge[moved] * NUDGE * field.finest)[1]
-        out.append(nearest)
-    return out[0], out[1]
+        out.append((moved, ends[moved] + nudge[moved] * NUDGE * field.finest))
+    return out
