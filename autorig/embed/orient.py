@@ -65,8 +65,8 @@ AXIS_PLANE_SAMPLES = 200  # the grid alone misses a shield's mid-plane, 5 % of t
 @dataclass
 class Orientation:
     """up, front: the chosen axis specs ('y', '-z', ...); costs {'up/front': embedding penalty (at most the
-    opposite frame's plus the template's ``head_gap``), plus the handicap of leaving the glTF convention, minus
-    the weighted head/tail cues} of every candidate tried;
+    opposite frame's plus the template's ``head_gap``), plus the handicap of leaving the glTF convention and
+    what the weighted head/tail cues hold against it (``cue_penalty``)} of every candidate tried;
     margin the runner-up's cost minus the winner's (0 when nothing was searched);
     symmetry [3] mirror error of each input axis (fraction of the size; the smallest is left-right)."""
     up: str
@@ -253,12 +253,13 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
     # Greedy embeddings rank the frames (an upside-down frame costs many times more); the best few are then
     # searched on a short budget, and the two best of those longer when front and back hang on them (below).
-    problems, prior = {}, {}
+    problems, cues = {}, {}
     for u, f in candidates:
         change = prepared.frame_change(u, f)
         moved = graph.moved(change.apply(graph.centers), change.scale)
         problems[(u, f)] = _problem(moved, template)
-        prior[(u, f)] = _handicap(u, f) - weighted_cues(template, moved, change.apply(prepared.work_vertices))
+        cues[(u, f)] = weighted_cues(template, moved, change.apply(prepared.work_vertices))
+    prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds, searched_long = {}, set()
     for key in sorted(costs, key=lambda k: (costs[k] + prior[k], k))[:FULL_SEARCHES]:
@@ -288,6 +289,16 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     margin = costs[ranked[1]] - costs[ranked[0]] if len(ranked) > 1 else 0.0
     u, f = ranked[0].split("/")
     return Orientation(u, f, costs, float(margin), [float(v) for v in symmetry])
+
+
+def cue_penalty(cues: dict, frame: tuple[str, str]) -> float:
+    """How much the weighted head/tail cues ({(up, front): ``weighted_cues``}) hold against ``frame``: by how
+    much they favour the frame with the same up facing the other way (0 when they favour this one, or when that
+    frame is not a candidate). The cues tell front from back and nothing else: in a frame with the wrong up
+    they read a leg or the back as a head, and must not outweigh the embedding there (a stag read lying on its
+    side, its antlers the top of its body: 7.5 against 7.7 had the cues counted in full)."""
+    opposite = (frame[0], _flipped(frame[1]))
+    return max(cues.get(opposite, -np.inf) - cues[frame], 0.0)
 
 
 def _flipped(axis: str) -> str:

@@ -13,7 +13,10 @@ weighs against its own must lose by a margin,
     (cost(F) - w . cues(F)) - (cost(own) - w . cues(own)) >= MARGIN,
 
 where cost is the penalty of the embedding detection would find in that frame (searched long facing backwards,
-as detection searches its two best frames), and facing backwards cost(F) - cost(own) counts at most the bound
+as detection searches its two best frames). Detection counts the cues only against a frame whose opposite (the
+same up, facing the other way) they favour (``orient.cue_penalty``), so a frame with its own up right and its
+front wrong, facing backwards, is the one they can help against: the weights are fitted on those. Facing
+backwards cost(F) - cost(own) counts at most the bound
 ``head_gap`` (``orient.bounded_costs``), learned with ``w``: of the bounds in ``GAPS`` the one whose weights
 leave the least mean squared violation. On the 0 A.D. animals and the glTF fox that is 0: the embedding's
 difference between an animal facing forwards and backwards says nothing the cues do not say better (it faces 7
@@ -37,7 +40,8 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
     """({template field: weight} of the cues in ``CUES`` and ``head_gap``, record) for ``template`` from the
     examples' ``settings`` (``gamma.Setting``, every frame of every example) and the outline's head/tail cue
     [len(settings)] of each (the bulk, share and crest cues are read off each setting here). The record counts
-    the examples whose own frame does not win clearly (by MARGIN) without the cues and with them."""
+    the examples whose own frame does not win clearly (by MARGIN) over facing backwards without the cues (nor
+    the bound) and with them."""
     from scipy.optimize import minimize
 
     from ..embed.ends import end_bulk_cue, weight_share_cue
@@ -63,13 +67,10 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
         return {**{key: 0.0 for key in CUES}, "head_gap": None}, {"skipped": "no frames to compare"}
     gaps, cue_gaps, examples = np.array(gaps), np.array(cue_gaps), np.array(examples)
     backwards = np.array(backwards, dtype=bool)
-    # Every example counts the same, however many frames; within it, facing backwards (what the cues are for:
-    # the embedding tells the other frames apart by far more) as much as all its other frames together.
-    _, inverse = np.unique(examples, return_inverse=True)
-    kinds = np.c_[inverse, backwards]
-    _, kind, per_kind = np.unique(kinds, axis=0, return_inverse=True, return_counts=True)
-    kinds_of = np.bincount(inverse, weights=1.0 / per_kind[kind.ravel()])   # [examples] 1 or 2 kinds present
-    share = 1.0 / (per_kind[kind.ravel()] * kinds_of[inverse] * (inverse.max() + 1))
+    # Facing backwards, once per example, every example the same (the other frames: see the module docstring).
+    if not backwards.any():
+        return {**{key: 0.0 for key in CUES}, "head_gap": None}, {"skipped": "no frames facing backwards"}
+    share = backwards / backwards.sum()
 
     def bounded(gap):
         return gaps if gap is None else np.where(backwards, np.clip(gaps, -gap, gap), gaps)
@@ -92,7 +93,7 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
     gap, weights = GAPS[best], fits[best][1]
 
     def unclear(w, bound):
-        return int(len({int(e) for e in examples[bounded(bound) + cue_gaps @ w < MARGIN]}))
+        return int(len({int(e) for e in examples[backwards & (bounded(bound) + cue_gaps @ w < MARGIN)]}))
 
     return ({**{key: float(w) for key, w in zip(CUES, weights)}, "head_gap": gap},
             {"weight": round(float(weights[0]), 4), "bulk_weight": round(float(weights[1]), 4),
