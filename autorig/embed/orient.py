@@ -21,8 +21,10 @@ template has legs at both ends, and the embedding facing backwards often costs l
    not hide; where the body's weight lies between the feet (``ends.weight_share_cue``): most animals carry
    more of it on their front legs; and where the shape's crest lies between the feet (``crest_cue``): a head
    with its ears or horns is carried highest, a long tail straight back is not. Their weights are the
-   template's ``head_tail``, ``head_bulk``, ``head_share`` and ``head_crest``, learned together by ``autorig learn`` from how far the embedding alone gets front and back
-   wrong on its examples (0: not used). Between two frames that share up and face opposite ways, the
+   template's ``head_tail``, ``head_bulk``, ``head_share`` and ``head_crest``, learned together by
+   ``autorig learn`` from how far the embedding alone gets front and back wrong on its examples (0: not used).
+   They count only against a frame whose opposite (same up, facing the other way) they favour
+   (``cue_penalty``): they tell front from back, never up. Between two frames that share up and face opposite ways, the
    embedding's penalty difference counts at most the template's ``head_gap`` (learned with the weights; None:
    all of it): a four-legged template fits an animal about as badly either way round, and on shapes it fits
    badly (a cartoon, long legs) the difference is large and as often wrong as right (the corpus animals: the
