@@ -145,7 +145,7 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
     return Spheres(centers=points[kept], radii=radii[kept])
 
 
-RADIUS_STEP = 1e-3   # heights: medial radii this close are visited as equal (``pack_spheres``)
+RADIUS_STEP = 1e-4   # heights: medial radii this close are visited as equal (``pack_spheres``)
 NUDGE = 0.05   # of the finest cell: how far off a centre-plane corner its edge's nearest point is read
 
 
