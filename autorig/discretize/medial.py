@@ -67,26 +67,19 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     b = field.origin + b_idx * field.finest
     ca, cb = field.corner_nearest[ia], field.corner_nearest[ib]
     cos_turn = np.cos(np.radians(min_angle_degrees))
-    # Each side's reading of the centre planes, its nearest points asked for all at once (a query's fixed cost,
-    # the tree's arrays handed to libigl, is most of the cost of a few hundred points).
-    sides = [(rows, _off_the_centre_planes(field, a_idx[rows], b_idx[rows], axis[rows], a[rows], b[rows], signs))
-             for signs, rows in _plane_sides(field, a_idx, axis)]
-    queries = [q for _, ends in sides for _, q in ends]
-    if queries:     # a corner is the end of up to six edges and read alike from several sides: once each
-        unique, inverse = np.unique(np.concatenate(queries), axis=0, return_inverse=True)
-        found = field.surface.nearest(unique)[inverse.reshape(-1)]
-    else:
-        found = np.zeros((0, 3))
-    found = np.split(found, np.cumsum([len(q) for q in queries])[:-1]) if queries else []
-    points, radii, k = [], [], 0
-    for rows, ends in sides:
-        near = []
-        for (moved, _), stored in zip(ends, (ca[rows], cb[rows])):
-            stored = stored.copy()
-            stored[moved] = found[k]
-            near.append(stored)
-            k += 1
-        p, r = _crossings(a[rows], b[rows], near[0], near[1], da[rows], db[rows], cos_turn)
+    sides = list(_plane_sides(field, a_idx, axis))
+    # The ends on a centre plane, which are read off it: a few percent of the edges' ends.
+    centre = 2 ** (field.max_level - 1)
+    on_plane = {end: np.any(idx == centre, axis=1) for idx, end in ((a_idx, -1.0), (b_idx, 1.0))}
+    nudged = _NudgedNearest(field, [_nudges(field, idx[moved], axis[moved], end, signs)
+                                    for signs, rows in sides for idx, end in ((a_idx, -1.0), (b_idx, 1.0))
+                                    for moved in [rows[on_plane[end][rows]]]])
+    points, radii = [], []
+    for signs, rows in sides:
+        part = (lambda x: x) if len(rows) == len(axis) else (lambda x: x[rows])   # every edge: no copies
+        sa, sb = _off_the_centre_planes(field, part(a_idx), part(b_idx), part(axis), part(a), part(b),
+                                        part(ca), part(cb), signs, nudged)
+        p, r = _crossings(part(a), part(b), sa, sb, part(da), part(db), cos_turn)
         points.append(p)
         radii.append(r)
     return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii))
@@ -152,7 +145,7 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
     return Spheres(centers=points[kept], radii=radii[kept])
 
 
-RADIUS_STEP = 1e-3   # heights: medial radii this close are visited as equal (``pack_spheres``)
+RADIUS_STEP = 1e-4   # heights: medial radii this close are visited as equal (``pack_spheres``)
 NUDGE = 0.05   # of the finest cell: how far off a centre-plane corner its edge's nearest point is read
 
 
@@ -174,11 +167,11 @@ def _plane_sides(field: DistanceField, a_idx, axis):
             yield signs, rows
 
 
-def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, signs=(-1.0, -1.0, -1.0)):
-    """For each end of the edges (a, then b): (rows [M], points [M, 3]) of the ends that lie on one of the
-    octree's three centre planes, and the points their nearest surface point is to be read at instead of
-    theirs: a little off the plane (``NUDGE`` of the finest cell), beyond the edge's end for the plane across
-    the edge, to the side ``signs`` gives (per axis) for a plane the edge lies in.
+def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, cb, signs=(-1.0, -1.0, -1.0),
+                           nudged: "_NudgedNearest | None" = None):
+    """(ca, cb) with the nearest surface point of each edge end that lies on one of the octree's three centre
+    planes read a little off the plane instead (``NUDGE`` of the finest cell): beyond the edge's end for the
+    plane across the edge, to the side ``signs`` gives (per axis) for a plane the edge lies in.
 
     A mirror-symmetric body's mid-plane is the octree's centre plane (the cube is centred on the body's box),
     so every corner on it is equally far from the left and the right side: which of the two its stored nearest
@@ -187,15 +180,56 @@ def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, signs
     spheres packed from them. Read from beyond the end, an edge across the plane sees the crease at the plane
     whatever the tie; an edge in the plane is read from each side in turn (``_plane_sides``), so that turning
     or mirroring the body, which swaps the sides, gives the same samples.
+
+    nudged: the nearest points of the nudged ends, asked for already (``_NudgedNearest``); None: asked here.
     """
     centre = 2 ** (field.max_level - 1)
-    rows = np.arange(len(axis))
-    side = np.asarray(signs, dtype=float)
     out = []
-    for idx, ends, sign in ((a_idx, a, -1.0), (b_idx, b, 1.0)):
-        on = idx == centre                       # [E, 3] on the centre plane normal to each axis
-        nudge = np.where(on, side[None, :], 0.0)  # in the plane: to the side asked for
-        nudge[rows, axis] = np.where(on[rows, axis], sign, 0.0)   # across it: beyond the edge's end
-        moved = np.flatnonzero(on.any(axis=1))
-        out.append((moved, ends[moved] + nudge[moved] * NUDGE * field.finest))
-    return out
+    for idx, nearest, end in ((a_idx, ca, -1.0), (b_idx, cb, 1.0)):
+        moved = np.flatnonzero(np.any(idx == centre, axis=1))     # the ends with a nudge
+        nearest = nearest.copy()
+        if len(moved):
+            numbers, nudge = _nudges(field, idx[moved], axis[moved], end, signs)
+            nearest[moved] = (nudged or _NudgedNearest(field, [(numbers, nudge)])).nearest(numbers, nudge)
+        out.append(nearest)
+    return out[0], out[1]
+
+
+def _nudges(field: DistanceField, idx, axis, end: float, signs) -> tuple[np.ndarray, np.ndarray]:
+    """(grid numbers [E], nudges [E, 3] in {-1, 0, 1}) of one end of each edge (integer corners ``idx`` [E, 3],
+    edges along ``axis`` [E]; ``end`` -1 for the lower end, +1 for the upper): which way the end is read off
+    each centre plane it lies on (``_off_the_centre_planes``), zero along the planes it is not on."""
+    centre = 2 ** (field.max_level - 1)
+    rows = np.arange(len(axis))
+    on = idx == centre                                    # [E, 3] on the centre plane normal to each axis
+    nudge = np.where(on, np.asarray(signs, dtype=float)[None, :], 0.0)   # in the plane: to the side asked for
+    nudge[rows, axis] = np.where(on[rows, axis], end, 0.0)             # across it: beyond the edge's end
+    return grid_number(idx, field.max_level), nudge
+
+
+class _NudgedNearest:
+    """Nearest surface points of grid corners read ``NUDGE`` of the finest cell off them, each (corner, nudge)
+    queried once: a corner on a centre plane ends up to six edges, each read from up to seven sides
+    (``_plane_sides``), most of them the same nudged point (~30k queries of ~7k points at 86k faces).
+
+    requests: (grid numbers [N], nudges [N, 3] in {-1, 0, 1}) pairs, all queried together at construction."""
+
+    def __init__(self, field: DistanceField, requests):
+        keys = np.concatenate([self._key(n, d) for n, d in requests] or [np.zeros(0, dtype=np.int64)])
+        moved = np.concatenate([np.any(d != 0, axis=1) for _, d in requests] or [np.zeros(0, dtype=bool)])
+        self.keys = np.unique(keys[moved])
+        numbers, code = self.keys // 27, self.keys % 27
+        nudge = np.stack([code // 9, code // 3 % 3, code % 3], axis=1).astype(float) - 1.0
+        # As the points were read one edge end at a time: the end, then the nudge added (the same floats).
+        ends = field.origin + grid_index(numbers, field.max_level) * field.finest
+        self.points = field.surface.nearest(ends + nudge * NUDGE * field.finest)
+
+    @staticmethod
+    def _key(numbers, nudge) -> np.ndarray:
+        code = (nudge + 1).astype(np.int64) @ np.array([9, 3, 1])
+        return numbers.astype(np.int64) * 27 + code
+
+    def nearest(self, numbers, nudge) -> np.ndarray:
+        """[N, 3] nearest surface points of the corners ``numbers`` [N] nudged by ``nudge`` [N, 3] (asked for
+        at construction)."""
+        return self.points[np.searchsorted(self.keys, self._key(numbers, nudge))]

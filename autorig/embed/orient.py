@@ -111,16 +111,18 @@ def mid_plane(distance, vertices: np.ndarray, samples: int = MID_PLANE_SAMPLES) 
 
 
 def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_PLANE_SAMPLES,
-                 steps: int = MID_PLANE_STEPS, exact: bool = True) -> tuple[float, float]:
+                 steps: int = MID_PLANE_STEPS, exact: bool = True, points: np.ndarray | None = None
+                 ) -> tuple[float, float]:
     """(position, error) of the plane normal to ``axis`` across which the surface is most nearly its own mirror
     image. The error of a plane is the median distance of the mirrored vertices to the surface (in the
     vertices' units), so that a prop whose mirror image lands far from everything does not pull the plane its
     way; the box's centre stays unless another plane does better. The planes tried: a grid of ``steps`` on
     each side of the centre, then (``exact``) a bounded search between the grid's best one's neighbours.
 
-    distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices."""
+    distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices;
+    points: ``vertices[spread(vertices, samples)]`` when the caller has them already (the same for each axis)."""
     from scipy.optimize import minimize_scalar
-    points = vertices[spread(vertices, samples)]
+    points = vertices[spread(vertices, samples)] if points is None else points
     lo, hi = float(vertices[:, axis].min()), float(vertices[:, axis].max())
     centre, width = (lo + hi) / 2, hi - lo
 
@@ -248,8 +250,9 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     left_axes = [a for a in order[:2] if symmetry[a] <= SYMMETRY_AMBIGUITY * symmetry[order[0]] + 1e-4]
     # A spear held forward or a shield to one side moves the box's centre, across which ``mirror_errors``
     # mirrors: the axis most nearly symmetric across its own best plane is tried too.
+    spread_vertices = prepared.work_vertices[spread(prepared.work_vertices, AXIS_PLANE_SAMPLES)]
     planes = [mirror_plane(field.surface_distance, prepared.work_vertices, a, AXIS_PLANE_SAMPLES,
-                           AXIS_PLANE_STEPS)[1] for a in range(3)]
+                           AXIS_PLANE_STEPS, points=spread_vertices)[1] for a in range(3)]
     best_plane = next(a for a in np.argsort(planes, kind="stable") if up == "auto" or a != AXES.index(up[-1]))
     left_axes += [best_plane] if best_plane not in left_axes else []
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))

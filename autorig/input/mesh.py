@@ -450,20 +450,40 @@ def spread(points: np.ndarray, count: int) -> np.ndarray:
     points = np.asarray(points, dtype=np.float64)
     if len(points) <= count:
         return np.arange(len(points))
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    lo, hi = column_min(points), column_max(points)
     centre = (lo + hi) / 2
     size = float(np.linalg.norm(hi - lo)) / np.sqrt(count) or 1.0
 
     def cells(size: float):
         key = np.floor((points - centre) / size + 0.5).astype(np.int64)
-        _, cell = np.unique(key, axis=0, return_inverse=True)
+        # The cells numbered in the order of their integer coordinates (x, then y, then z), as np.unique(key,
+        # axis=0) numbers them, through one integer per point: sorting rows is ~10 times slower.
+        shifted = key - column_min(key)
+        span = column_max(shifted) + 1
+        _, cell = np.unique((shifted[:, 0] * span[1] + shifted[:, 1]) * span[2] + shifted[:, 2],
+                            return_inverse=True)
         return key, cell.reshape(-1)
 
     key, cell = cells(size)
     size *= np.sqrt((cell.max() + 1) / count)     # occupied cells go as the surface's area over size squared
     key, cell = cells(size)
     off = np.linalg.norm(points - (centre + key * size), axis=1)
-    # nearest first within each cell; exact ties (a symmetric mesh's mirror pair) by position
-    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], off, cell))
+    # nearest first within each cell; exact ties (a symmetric mesh's mirror pair) by position. Only the points
+    # as near as their cell's nearest can win, so only they are sorted.
+    nearest = np.full(cell.max() + 1, np.inf)
+    np.minimum.at(nearest, cell, off)
+    tied = np.flatnonzero(off == nearest[cell])
+    order = tied[np.lexsort((points[tied, 2], points[tied, 1], points[tied, 0], cell[tied]))]
     first = order[np.r_[True, cell[order][1:] != cell[order][:-1]]]
     return np.sort(first)
+
+
+def column_min(array: np.ndarray) -> np.ndarray:
+    """``array.min(axis=0)`` of an [N, K] array with few columns, column by column: numpy reduces a C-order
+    [N, 3] array along its rows some 8 times slower (1.6 ms against 0.2 ms at 86k rows)."""
+    return np.array([array[:, k].min() for k in range(array.shape[1])], dtype=array.dtype)
+
+
+def column_max(array: np.ndarray) -> np.ndarray:
+    """``array.max(axis=0)``, column by column (see ``column_min``)."""
+    return np.array([array[:, k].max() for k in range(array.shape[1])], dtype=array.dtype)
