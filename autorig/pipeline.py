@@ -109,12 +109,22 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
         from .markers import marker_frame
         up, front = marker_frame(markers, template, vertices[np.unique(faces)], up, front)
     with stage("prepare"):
-        prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True)
+        prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True,
+                           unit=None if up == "auto" else up)
         heat_surface = start_heat_surface(prepared)   # a dense mesh's heat surface, made beside the skeleton
-    field, graph = discretize(prepared, stage)
+    field, graph = discretize(prepared, stage, None if "auto" in (up, front) else (up, front))
     with budget("the embedding's search", SEARCH_SECONDS):   # the orientation's searches and the embedding's
         with stage("orientation"):
             frame = detect_orientation(prepared, field, graph, template, up, front)
+        if up == "auto" and frame.up.lstrip("+-") != "y":
+            # The field is measured in heights: detected up not the working frame's, it is discretized again in
+            # the units of the up found, as it is when that up is given (the same rig either way).
+            with stage("prepare"):
+                prepared = prepare(vertices, faces, *working_axes(up, front), name=name, checked=True,
+                                   unit=frame.up)
+            field, graph = discretize(prepared, stage, (frame.up, frame.front))
+    with budget("the embedding's search", SEARCH_SECONDS):
+        with stage("orientation"):
             prepared, field, graph = centre_on_mid_plane(*reorient(prepared, field, graph, frame))
         held = _held(markers, template, prepared, vertices, faces, options)
         # Marked joints are put at their markers once the joints are in the convention the markers are in (the
@@ -213,9 +223,11 @@ def _markers_info(held, joints, options, up, front) -> dict:
             **({"axes_from_markers": chosen} if chosen else {})}
 
 
-def discretize(prepared, stage=None):
+def discretize(prepared, stage=None, axes: tuple[str, str] | None = None):
     """(distance field, sphere graph) of a prepared mesh (``autorig.input.mesh.prepare``), in its canonical frame:
-    the stages the embedding needs, shared by ``rig`` and the learner (``autorig.learn``)."""
+    the stages the embedding needs, shared by ``rig`` and the learner (``autorig.learn``). ``axes``: the
+    character's (up, front) in the input's axes when known, if ``prepared`` is in another frame (the rig's
+    working frame): the packing breaks exact ties in that frame (``pack_spheres``)."""
     from .discretize.distance import distance_field
     from .discretize.graph import sphere_graph
     from .discretize.medial import medial_samples, pack_spheres
@@ -225,7 +237,8 @@ def discretize(prepared, stage=None):
     with stage("distance field"):
         field = distance_field(*prepared.coarse())
     with stage("medial spheres"):
-        spheres = pack_spheres(medial_samples(field), min_radius=field.finest)
+        rotation = None if axes is None else prepared.frame_change(*axes).rotation
+        spheres = pack_spheres(medial_samples(field), min_radius=field.finest, rotation=rotation)
         if len(spheres.radii) > MAX_SPHERES:  # the graph, orientation and search grow with their square
             raise over_budget("medial spheres", len(spheres.radii), MAX_SPHERES)
     with stage("sphere graph"):
@@ -421,5 +434,5 @@ def _stage_timer(timings: dict[str, float]):
     def stage(name: str):
         start = time.perf_counter()
         yield
-        timings[name] = time.perf_counter() - start
+        timings[name] = timings.get(name, 0.0) + time.perf_counter() - start   # a stage run twice: both
     return stage

@@ -12,6 +12,9 @@ A template is a JSON file (see ``templates/biped.json``)::
      "confidence": {...},                            # optional: a calibrated model (autorig.confidence)
      "head_tail": 1.2,                               # optional: weight of the head/tail cue (autorig.embed.orient)
      "head_bulk": 0.8,                               # optional: weight of the limb ends' bulk cue (autorig.embed.ends)
+     "head_share": 1.5,                              # optional: weight of the weight-share cue (autorig.embed.ends)
+     "head_crest": 0.5,                              # optional: weight of the crest cue (autorig.embed.orient)
+     "head_gap": 0.0,                                # optional: the most the embedding's front/back difference counts
      "fingers": true,                                # optional: read fingers off the hands (autorig.hands)
      "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
 
@@ -98,6 +101,10 @@ class Template:
     head_tail  how much the shape's head/tail cue weighs in orientation detection (``autorig.embed.orient``), in
                penalty units; 0 leaves front and back to the embedding alone
     head_bulk  how much the limb ends' bulk cue (``autorig.embed.ends``) weighs beside it, in penalty units
+    head_share how much the weight-share cue (``ends.weight_share_cue``) weighs beside them, in penalty units
+    head_crest how much the crest cue (``orient.crest_cue``) weighs beside them, in penalty units
+    head_gap   the most the embedding's penalty difference between two frames that share up and face opposite
+               ways counts in detection (``autorig.embed.orient``), in penalty units; None: all of it
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
                to the shared anatomy (``autorig.embed.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
@@ -119,6 +126,9 @@ class Template:
     placement: dict | None = field(default=None, compare=False, hash=False)
     head_tail: float = field(default=0.0, compare=False, hash=False)
     head_bulk: float = field(default=0.0, compare=False, hash=False)
+    head_share: float = field(default=0.0, compare=False, hash=False)
+    head_crest: float = field(default=0.0, compare=False, hash=False)
+    head_gap: float | None = field(default=None, compare=False, hash=False)
     conventions: dict | None = field(default=None, compare=False, hash=False)
     default_convention: str | None = field(default=None, compare=False, hash=False)
     fingers: bool = field(default=False, compare=False, hash=False)
@@ -175,9 +185,11 @@ class Template:
             if self.placement.get("offset") is not None:
                 data["placement"]["offset"] = [[round(float(v), 4) for v in row]
                                                for row in self.placement["offset"]]
-        for key in ("head_tail", "head_bulk"):
+        for key in ("head_tail", "head_bulk", "head_share", "head_crest"):
             if getattr(self, key):
                 data[key] = round(float(getattr(self, key)), 4)
+        if self.head_gap is not None:
+            data["head_gap"] = round(float(self.head_gap), 4)
         if self.fingers:
             data["fingers"] = True
         if self.conventions:
@@ -367,8 +379,9 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         if h["name"] in index or any(h["name"] == other.name for other in helpers):
             raise bad(f"helper {h['name']!r} has the name of another joint")
         helpers.append(Helper(h["name"], index[h["parent"]], offset))
-    cue_weights = {key: data.get(key, 0.0) for key in ("head_tail", "head_bulk")}
-    for key, value in cue_weights.items():
+    cue_weights = {key: data.get(key, 0.0) for key in ("head_tail", "head_bulk", "head_share", "head_crest")}
+    head_gap = data.get("head_gap")
+    for key, value in (*cue_weights.items(), *((("head_gap", head_gap),) if head_gap is not None else ())):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < float("inf"):
             raise bad(f'"{key}" must be a number >= 0')
     fingers = data.get("fingers", False)
@@ -422,6 +435,9 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         placement=placement,
         head_tail=float(cue_weights["head_tail"]),
         head_bulk=float(cue_weights["head_bulk"]),
+        head_share=float(cue_weights["head_share"]),
+        head_crest=float(cue_weights["head_crest"]),
+        head_gap=float(head_gap) if head_gap is not None else None,
         conventions=conventions,
         default_convention=default_convention,
         fingers=fingers,

@@ -28,9 +28,11 @@ sideways).
 ``--explain`` prints instead why, per animal as built (and per corpus animal with ``--corpus``): the embedding's
 penalty facing backwards minus facing the right way (both searched as long as detection searches its two best
 frames; negative: the embedding alone turns it round), the outline cue (``orient.head_tail_cue``), the limb
-ends' bulk cue (``ends.end_bulk_cue``) and what the template's weights make of them (2 w . cues: the prior's
-difference between the two frames), and a weight-share cue that autorig does not use: where the medial spheres' volume (sum of r^3) lies between the back and front feet
-(-1 over the back feet, +1 over the front ones; most four-legged animals carry more weight on their front legs).
+ends' bulk cue (``ends.end_bulk_cue``), the weight share (``ends.weight_share_cue``: where the medial spheres'
+volume lies between the back and front feet, -1 over the back feet, +1 over the front ones), the crest
+(``orient.crest_cue``: where the top of the shape lies between them), and what the template's weights make of
+them (2 w . cues: the prior's difference between the two frames; the embedding's difference counts at most the
+template's ``head_gap``).
 """
 from __future__ import annotations
 
@@ -253,24 +255,26 @@ def explain(families: list[str], per_family: int, seed: int, template_name: str,
     """Print the embedding's gap and the cues of every animal (see the module docstring)."""
     from autorig.template import load_template
     template = load_template(template_name)
-    print(f"{'animal':24s} {'back - own':>10s} {'outline':>8s} {'bulk':>6s} {'2 w.cues':>8s} {'sum':>7s} {'share':>6s}")
+    print(f"{'animal':24s} {'back - own':>10s} {'outline':>8s} {'bulk':>6s} {'share':>6s} {'crest':>6s} "
+          f"{'2 w.cues':>8s} {'sum':>7s}")
+    bound = np.inf if template.head_gap is None else template.head_gap
     rows = [(a.name, a.vertices, a.faces) for fam in families for a in family(fam, per_family, seed)]
     if corpus is not None:
         rows += list(_corpus_animals(corpus))
     for name, vertices, faces in rows:
-        gap, outline, bulk, prior, share = ends_explained(vertices, faces, template)
-        print(f"{name:24s} {gap:10.2f} {outline:8.2f} {bulk:6.2f} {prior:8.2f} {gap + prior:7.2f} {share:6.2f}",
-              flush=True)
+        gap, outline, bulk, prior, share, crest = ends_explained(vertices, faces, template)
+        print(f"{name:24s} {gap:10.2f} {outline:8.2f} {bulk:6.2f} {share:6.2f} {crest:6.2f} {prior:8.2f} "
+              f"{float(np.clip(gap, -bound, bound)) + prior:7.2f}", flush=True)
     return 0
 
 
 def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[float, ...]:
     """(embedding penalty facing -z minus facing +z, outline cue, bulk cue, the weighted cues' difference
-    between the two frames, weight share) of a +y up, +z front animal (vertices [V, 3], faces [F, 3])."""
-    from autorig.embed.ends import end_bulk_cue
+    between the two frames, weight share, crest) of a +y up, +z front animal (vertices [V, 3], faces [F, 3])."""
+    from autorig.embed.ends import end_bulk_cue, weight_share_cue
     from autorig.input.mesh import prepare
-    from autorig.embed.orient import (DECISION_EXPANSIONS, FEET_BAND, _embedding_cost, _problem, head_tail_cue,
-                                weighted_cues)
+    from autorig.embed.orient import (DECISION_EXPANSIONS, _embedding_cost, _problem, crest_cue, head_tail_cue,
+                                      weighted_cues)
     from autorig.pipeline import discretize
     prepared = prepare(vertices, faces, "y", "z")
     _, graph = discretize(prepared)
@@ -279,13 +283,9 @@ def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[f
     back_cost = _embedding_cost(_problem(graph.moved(back.apply(graph.centers), back.scale), template),
                                 DECISION_EXPANSIONS)[0]
     V = prepared.work_vertices
-    y, z = V[:, 1], V[:, 2]
-    feet = z[y <= y.min() + FEET_BAND * np.ptp(y)]
-    volume = graph.radii ** 3
-    centre = float(volume @ graph.centers[:, 2] / volume.sum())
-    share = (centre - (feet.min() + feet.max()) / 2) / max((feet.max() - feet.min()) / 2, 1e-9)
     prior = 2 * weighted_cues(template, graph, V)    # the cues negate when the shape is turned round
-    return back_cost - own_cost, head_tail_cue(V), end_bulk_cue(graph, V), prior, float(share)
+    return (back_cost - own_cost, head_tail_cue(V), end_bulk_cue(graph, V), prior, weight_share_cue(graph, V),
+            crest_cue(V))
 
 
 def _corpus_animals(train: Path):

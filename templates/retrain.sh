@@ -39,5 +39,34 @@ learn biped proportions,penalties,placement,conventions,confidence "$CORPUS"/mak
 learn humanoid proportions,penalties,placement,conventions,confidence "$CORPUS"/makehuman_* \
     "$CORPUS"/makehuman-ue_* --convention engine=rigged,makehuman,makehuman-ue --convention gltf=rigged \
     --convention mixamo=makehuman --convention unreal=makehuman-ue --default-convention engine
+# Which end of a four-legged animal is its head (the head/tail cues' weights and the bound on the embedding's
+# front/back difference, autorig/learn/head_tail.py) is learned from every four-legged example there is: the
+# 0 A.D. animals, the glTF fox and Quaternius' animals (CORPUS/quaternius_*, data/corpus/quaternius.py), and
+# only that is learned from Quaternius' animals. Cross-validated by source, see autorig/learn/head_tail.py.
+orientation() {
+    local all=("$SHARED/data/train" "$SHARED/data/rigged")
+    if ls -d "$CORPUS"/quaternius_* >/dev/null 2>&1; then all+=("$CORPUS"/quaternius_*); fi
+    autorig learn "${all[@]}" --template "templates/handset/$1.json" --name "$1" \
+        -o "templates/$1.orientation.json" --learn orientation
+    python -c '
+import json, sys
+from pathlib import Path
+from autorig.template import template_json
+target, learned = Path(sys.argv[1]), json.loads(Path(sys.argv[2]).read_text())
+keys = ("head_tail", "head_bulk", "head_share", "head_crest", "head_gap")
+data, old = {}, json.loads(target.read_text())
+for key, value in old.items():    # the learned weights where the old ones were (else before learned_from)
+    if key in keys or (key == "learned_from" and not any(k in old for k in keys)):
+        data.update({k: learned[k] for k in keys if k in learned and k not in data})
+    if key not in keys:
+        data[key] = value
+data["learned_from"]["head_tail"] = {**learned["learned_from"]["head_tail"],
+                                     "from": learned["learned_from"]["examples"]}
+target.write_text(template_json(data))
+' "templates/$1.json" "templates/$1.orientation.json"
+    rm "templates/$1.orientation.json"
+}
 learn quadruped orientation,placement,legs,confidence
+orientation quadruped
 learn horse orientation,placement,legs,confidence
+orientation horse

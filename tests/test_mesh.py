@@ -538,3 +538,35 @@ def test_frame_change_matches_moving_every_vertex(start):
         # atol: the working copy, whose box is used, is rounded to 1e-9 of the height
         np.testing.assert_allclose(change.apply(prepared.vertices), expected, atol=1e-9)
         np.testing.assert_array_equal(prepared.reframed(up, front).vertices, change.apply(prepared.vertices))
+
+
+def _spread_by_rows(points: np.ndarray, count: int) -> np.ndarray:
+    """``spread`` as it was first written (cells numbered by np.unique over rows, every point sorted): the
+    reference the faster one must match."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = (lo + hi) / 2
+    size = float(np.linalg.norm(hi - lo)) / np.sqrt(count) or 1.0
+
+    def cells(size):
+        key = np.floor((points - centre) / size + 0.5).astype(np.int64)
+        return key, np.unique(key, axis=0, return_inverse=True)[1].reshape(-1)
+
+    key, cell = cells(size)
+    size *= np.sqrt((cell.max() + 1) / count)
+    key, cell = cells(size)
+    off = np.linalg.norm(points - (centre + key * size), axis=1)
+    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], off, cell))
+    return np.sort(order[np.r_[True, cell[order][1:] != cell[order][:-1]]])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_spread_picks_the_points_the_row_by_row_reference_picks(seed):
+    """input.mesh.spread numbers cells through one integer and sorts only each cell's nearest points (7 times
+    faster at 60k vertices); the points it picks are the same, mirror-image ties included."""
+    from autorig.input.mesh import spread
+    rng = np.random.default_rng(seed)
+    points = rng.normal(size=(5000, 3)) * [1.0, 3.0, 0.5] + rng.uniform(-10, 10, 3)
+    points = np.vstack([points, points * [-1, 1, 1]])          # mirror pairs: exact ties of a cell's nearest
+    points = np.round(points, 1 + seed % 2)                     # and many points sharing coordinates
+    for count in (50, 300, 2000):
+        assert np.array_equal(spread(points, count), _spread_by_rows(points, count))

@@ -93,7 +93,7 @@ def test_a_biped_facing_away_is_turned_round():
     assert np.max(np.linalg.norm(away.joints * [-1, 1, -1] - given.joints, axis=1)) < 0.03 * height
 
 
-@pytest.mark.parametrize("key", ["head_tail", "head_bulk"])
+@pytest.mark.parametrize("key", ["head_tail", "head_bulk", "head_share", "head_crest"])
 def test_head_tail_in_template_files(key):
     data = json.loads((ROOT / "templates" / "quadruped.json").read_text())
     template = template_from_dict(data)
@@ -103,6 +103,19 @@ def test_head_tail_in_template_files(key):
     for bad in (-1, "high", True):
         with pytest.raises(TemplateError, match=key):
             template_from_dict({**data, key: bad})
+
+
+def test_head_gap_in_template_files():
+    data = json.loads((ROOT / "templates" / "quadruped.json").read_text())
+    assert "head_gap" in data
+    template = template_from_dict({**data, "head_gap": 0.25})
+    assert template.head_gap == 0.25 and template_from_dict(template.to_dict()).head_gap == 0.25
+    assert template_from_dict({**data, "head_gap": 0}).head_gap == 0.0    # 0 is a bound: the cues decide
+    assert template_from_dict({k: v for k, v in data.items() if k != "head_gap"}).head_gap is None
+    assert load_template("biped").head_gap is None      # a biped's embedding tells its front from its back
+    for bad in (-1, "high", True):
+        with pytest.raises(TemplateError, match="head_gap"):
+            template_from_dict({**data, "head_gap": bad})
 
 
 @pytest.mark.skipif(not TRAIN.is_dir(), reason="the training corpus (../shared/data/train) is not present")

@@ -126,7 +126,10 @@ def test_page_is_offline_doubtful_first_and_links_the_rigs(batch):
             assert picture.format == "WEBP" and picture.height == 160 and picture.width >= 40
     report = {a["input"]: a for a in json.loads((out / "report.json").read_text())["assets"]}
     assert "thumbnails" in report["hero.obj"]["timings"]
-    assert report[f"props/{TUBE}"]["confidence"] < 0.5 and report[f"props/{TUBE}"]["confidence_parts"]["fit"] < 0.8
+    # The tube is no biped: some part of its confidence says so (which one, the fit or the limbs, depends on
+    # which way up a cylinder is taken, a tie).
+    tube_parts = report[f"props/{TUBE}"]["confidence_parts"]
+    assert report[f"props/{TUBE}"]["confidence"] < 0.5 and min(tube_parts.values()) < 0.8
     # A doubtful rig is called so, with what pulled it down, in the report and on its card; the good one is not.
     assert report[f"props/{TUBE}"]["doubtful"] and report[f"props/{TUBE}"]["confidence_reasons"]
     assert not report["hero.obj"]["doubtful"]
@@ -148,7 +151,11 @@ def test_page_in_chromium_cards_errors_pictures_filter_and_sort(batch, tmp_path)
         assert "not an OBJ file" in cards[0]["text"] and "failed" in cards[0]["text"]
         assert "doubtful" in cards[1]["text"] and "probably wrong: " in cards[1]["text"]
         assert re.search(r"confidence 0\.\d\d\s+fit 0\.\d\d", cards[1]["text"])
-        assert any(w.startswith("fit ") for w in cards[1]["weak"]) and not cards[2]["weak"]  # what pulls it down
+        # what pulls it down: the weakest part of the report's confidence, marked on the card
+        tube_parts = json.loads((out / "report.json").read_text())["assets"]
+        tube_parts = next(a for a in tube_parts if a["input"] == f"props/{TUBE}")["confidence_parts"]
+        weakest = min(tube_parts, key=tube_parts.get)
+        assert any(w.startswith(weakest + " ") for w in cards[1]["weak"]) and not cards[2]["weak"]
         assert "biped · up y · front z" in cards[2]["text"] and re.search(r"\d\.\d s: \w", cards[2]["text"])
         assert {"load", "embedding", "skin weights", "write", "thumbnails"} <= {s.rsplit(" ", 1)[0]
                                                                                 for s in cards[2]["stages"]}

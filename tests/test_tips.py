@@ -68,3 +68,39 @@ def test_a_separate_small_piece_does_not_take_a_tip(sample):
     surface = Surface(all_vertices, faces, core_of(all_vertices, faces))
     tip = surface.tip(joints["left_hand_end"] + [0.004, 0.0, 0.0])
     assert np.linalg.norm(tip - joints["left_hand_end"]) < 0.05
+
+
+def _tops_by_lexsort(graph, reach):
+    """tips._tops as first written (every edge sorted by vertex, reach and number): the reference."""
+    coo = graph.tocoo()
+    a, b = coo.row, coo.col
+    order = np.lexsort((b, reach[b], a))
+    a, b = a[order], b[order]
+    last = np.flatnonzero(np.r_[a[1:] != a[:-1], True])
+    up = np.arange(len(reach))
+    climbs = reach[b[last]] > reach[a[last]]
+    up[a[last][climbs]] = b[last][climbs]
+    for _ in range(64):
+        nxt = up[up]
+        if np.array_equal(nxt, up):
+            break
+        up = nxt
+    return up
+
+
+def test_each_vertex_climbs_to_the_top_the_edge_by_edge_sort_finds(sample):
+    """tips._tops takes each vertex's highest neighbour by reductions over the graph's rows; ties (the highest
+    numbered wins), unreached vertices (-inf) and a vertex with no edge climb as the sorted edges had them."""
+    from scipy.sparse import csr_matrix
+
+    from autorig.readoff.tips import _tops
+    vertices, faces = canonical(sample)[0], sample.faces
+    surface = Surface(vertices, faces, core_of(vertices, faces))
+    graph = surface.graph
+    lonely = csr_matrix((graph.data, graph.indices, np.r_[graph.indptr, graph.indptr[-1]]),
+                        shape=(graph.shape[0] + 1, graph.shape[1] + 1))     # one more vertex, with no edge
+    for reach in (surface.reach, np.round(surface.reach, 2),
+                  np.where(np.arange(len(surface.reach)) % 7 == 0, -np.inf, np.round(surface.reach, 1))):
+        assert np.array_equal(_tops(graph, reach), _tops_by_lexsort(graph, reach))
+        assert np.array_equal(_tops(lonely, np.r_[reach, 5.0]), _tops_by_lexsort(lonely, np.r_[reach, 5.0]))
+    assert len(np.unique(_tops(graph, surface.reach))) > 3       # the limbs' ends, each its own top

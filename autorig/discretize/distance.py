@@ -39,6 +39,8 @@ class SurfaceQuery:
         # rebuild its hierarchy on every call (~7 ms at 6k faces, most of the cost of a small query).
         self._winding_tree = igl.FastWindingNumberBVH()
         self._winding_tree.init(self.vertices, self.faces)
+        self._lo = self.vertices.min(axis=0)
+        self._cell = max(float(np.ptp(self.vertices, axis=0).max()), 1e-300) / (2 ** MORTON_BITS - 1)
 
     def winding(self, points: np.ndarray) -> np.ndarray:
         """[N] generalized winding number of each point."""
@@ -46,14 +48,27 @@ class SurfaceQuery:
             return np.zeros(0)
         # accuracy_scale 1.5 instead of libigl's 2: half the time, and within 0.015 of the exact winding
         # number near the surface of the shared characters (the sign only needs the side of 0.5).
-        return self._winding_tree.winding_number(np.ascontiguousarray(points, dtype=np.float64), 1.5)
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) < MORTON_MIN:
+            return self._winding_tree.winding_number(points, 1.5)
+        order = self._morton_order(points)
+        out = np.empty(len(points))
+        out[order] = self._winding_tree.winding_number(np.ascontiguousarray(points[order]), 1.5)
+        return out
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """[N] unsigned distance of each point to the surface (no winding numbers: cheaper than ``closest``)."""
         points = np.ascontiguousarray(points, dtype=np.float64)
         if len(points) == 0:
             return np.zeros(0)
-        return np.sqrt(self._tree.squared_distance(self.vertices, self.faces, points)[0])
+        return np.sqrt(self._squared_distance(points)[0])
+
+    def nearest(self, points: np.ndarray) -> np.ndarray:
+        """[N, 3] the nearest surface point of each point (no winding numbers: cheaper than ``closest``)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) == 0:
+            return np.zeros((0, 3))
+        return self._squared_distance(points)[1]
 
     def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
                 known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -66,7 +81,7 @@ class SurfaceQuery:
         points = np.ascontiguousarray(points, dtype=np.float64)
         if len(points) == 0:
             return np.zeros(0), np.zeros((0, 3))
-        sq, _, nearest = self._tree.squared_distance(self.vertices, self.faces, points)
+        sq, nearest = self._squared_distance(points)
         distance = np.sqrt(sq)
         sign = np.ones(len(points))
         if known_points is None:
@@ -77,6 +92,45 @@ class SurfaceQuery:
             sign[~unsure] = np.sign(known_depth[~unsure])
         sign[unsure] = np.where(self.winding(points[unsure]) >= 0.5, 1.0, -1.0)
         return sign * distance, nearest
+
+    def _squared_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(squared distance [N], nearest surface point [N, 3]) of points [N, 3] (float64, C order).
+
+        The points go to libigl's tree in Morton order (along a space-filling curve over the mesh's box), and
+        the answers come back in the caller's order: each point's answer is computed alone, the same in any
+        order, but points near each other walk the same branches of the tree, which then stay in the cache
+        (a 60k-face mesh's 98k field corners: CPU 0.57 s in the grid's x-major order, 0.50 s in this one,
+        0.90 s shuffled)."""
+        if len(points) < MORTON_MIN:
+            sq, _, nearest = self._tree.squared_distance(self.vertices, self.faces, points)
+            return sq, nearest
+        order = self._morton_order(points)
+        sq, _, nearest = self._tree.squared_distance(self.vertices, self.faces, np.ascontiguousarray(points[order]))
+        out_sq, out_nearest = np.empty_like(sq), np.empty_like(nearest)
+        out_sq[order], out_nearest[order] = sq, nearest
+        return out_sq, out_nearest
+
+    def _morton_order(self, points: np.ndarray) -> np.ndarray:
+        """[N] the order of points [N, 3] along a Morton (Z-order) curve over the mesh's box."""
+        cell = np.clip((points - self._lo) / self._cell, 0, 2 ** MORTON_BITS - 1).astype(np.uint64)
+        return np.argsort(_spread_bits(cell[:, 0]) | _spread_bits(cell[:, 1]) << np.uint64(1)
+                          | _spread_bits(cell[:, 2]) << np.uint64(2), kind="stable")
+
+
+MORTON_BITS = 10    # per axis: cells of 1/1023 of the mesh's largest extent order the queries
+MORTON_MIN = 256    # fewer points than this are queried in the order given
+
+
+def _spread_bits(x: np.ndarray) -> np.ndarray:
+    """[N] uint64 with the low 21 bits of x [N] (uint64) spread to every third bit (bit k to bit 3k)."""
+    x = x & np.uint64(0x1FFFFF)
+    for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
+                        (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
+        x = (x | x << np.uint64(shift)) & np.uint64(mask)
+    return x
+
+
+ON_GRID = 1e-7   # finest edges: a point this near a plane of the finest grid lies on it (``_finest_leaf``)
 
 
 @dataclass
@@ -137,7 +191,7 @@ class DistanceField:
         dist = np.linalg.norm(back, axis=1)
         depth[outside] = -dist - self.finest
         gradient[outside] = back / np.maximum(dist, 1e-12)[:, None]
-        cell = self._locate(rel[in_cube])
+        cell = self._finest_leaf(rel[in_cube])
         edge = 2.0 ** (self.max_level - self.leaf_level[cell])
         t = np.clip((rel[in_cube] - self.leaf_index[cell]) / edge[:, None], 0.0, 1.0)
         values = self.leaf_values[cell]
@@ -149,6 +203,35 @@ class DistanceField:
         for axis, others in enumerate((fy * fz, fx * fz, fx * fy)):                        # [N, 8] each
             gradient[in_cube, axis] = np.einsum("nc,nc->n", others * signs[:, axis], values) / (edge * self.finest)
         return depth, gradient
+
+    def _finest_leaf(self, rel: np.ndarray) -> np.ndarray:
+        """Leaf index [N] of each point given in finest-edge units (inside the cube): on a face, edge or corner
+        of the finest grid, the finest of the leaves that touch it. A leaf next to smaller ones interpolates
+        its face from its own corners only, so the depth there depends on which side the point is taken
+        from: by ``floor`` the upper side, which turning the mesh (a vertex order, a mirrored file) makes the
+        lower one, and a sphere graph's edge in a thin finger was there on one side and not the other."""
+        cell = self._locate(rel)
+        on = np.abs(rel - np.rint(rel)) < ON_GRID                     # [N, 3]
+        near = np.flatnonzero(on.any(axis=1))
+        if not len(near):
+            return cell
+        best = None
+        for code in range(8):
+            step = np.array([-(code >> k & 1) for k in range(3)], dtype=np.float64)   # 0 or -1 per axis
+            use = np.all(on[near] | (step == 0), axis=1)     # only across the planes the point lies on
+            if not use.any():
+                continue
+            rows = near[use]
+            side = np.where(on[rows], np.rint(rel[rows]) + 0.5 + step, rel[rows])   # inside the cell that side
+            side = np.minimum(np.maximum(side, 0.0), 2 ** self.max_level - 0.5)
+            other = self._locate(side)
+            if best is None:        # code 0, the upper sides: every point has it
+                best = other
+                continue
+            finer = self.leaf_level[other] > self.leaf_level[best[use]]
+            best[np.flatnonzero(use)[finer]] = other[finer]
+        cell[near] = best
+        return cell
 
     def _locate(self, rel: np.ndarray) -> np.ndarray:
         """Leaf index [N] containing each point given in finest-edge units (inside the cube)."""

@@ -12,6 +12,8 @@ import numpy as np
 
 from .distance import DistanceField
 from .medial import Spheres
+TIE = 1e-9   # gaps this close (of the largest radius) are equal: ``_bridge_pieces`` bridges them all
+
 
 
 @dataclass
@@ -180,9 +182,12 @@ def _bridge_pieces(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np
     for piece in np.unique(labels):
         members = np.flatnonzero(labels == piece)
         sub = gap[members]
-        i, j = np.unravel_index(np.argmin(sub), sub.shape)
-        if np.isfinite(sub[i, j]):
-            extra.append(sorted((int(members[i]), int(j))))
+        least = sub.min()
+        if np.isfinite(least):
+            # every pair at the least gap: a symmetric body's piece on the mid-plane is as near a left sphere
+            # as its mirror image, and taking the first would take the side the spheres' order puts first
+            i, j = np.nonzero(sub <= least + TIE * max(abs(least), float(r.max())))
+            extra.extend(sorted((int(members[a]), int(b))) for a, b in zip(i, j))
     extra = np.unique(np.array(extra, dtype=np.int64).reshape(-1, 2), axis=0)
     if len(extra):
         extra = extra[segments_inside(field, c[extra[:, 0]], c[extra[:, 1]])]

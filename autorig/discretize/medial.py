@@ -66,10 +66,30 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     a = field.origin + a_idx * field.finest
     b = field.origin + b_idx * field.finest
     ca, cb = field.corner_nearest[ia], field.corner_nearest[ib]
-    ca, cb = _off_the_centre_planes(field, a_idx, b_idx, axis, a, b, ca, cb)
+    cos_turn = np.cos(np.radians(min_angle_degrees))
+    sides = list(_plane_sides(field, a_idx, axis))
+    # The ends on a centre plane, which are read off it: a few percent of the edges' ends.
+    centre = 2 ** (field.max_level - 1)
+    on_plane = {end: np.any(idx == centre, axis=1) for idx, end in ((a_idx, -1.0), (b_idx, 1.0))}
+    nudged = _NudgedNearest(field, [_nudges(field, idx[moved], axis[moved], end, signs)
+                                    for signs, rows in sides for idx, end in ((a_idx, -1.0), (b_idx, 1.0))
+                                    for moved in [rows[on_plane[end][rows]]]])
+    points, radii = [], []
+    for signs, rows in sides:
+        part = (lambda x: x) if len(rows) == len(axis) else (lambda x: x[rows])   # every edge: no copies
+        sa, sb = _off_the_centre_planes(field, part(a_idx), part(b_idx), part(axis), part(a), part(b),
+                                        part(ca), part(cb), signs, nudged)
+        p, r = _crossings(part(a), part(b), sa, sb, part(da), part(db), cos_turn)
+        points.append(p)
+        radii.append(r)
+    return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii))
+
+
+def _crossings(a, b, ca, cb, da, db, cos_turn):
+    """Where the edges a-b cross the medial surface of the nearest points ca, cb: (points, radii)."""
     ga = (a - ca) / da[:, None]
     gb = (b - cb) / db[:, None]
-    turned = np.einsum("ij,ij->i", ga, gb) < np.cos(np.radians(min_angle_degrees))
+    turned = np.einsum("ij,ij->i", ga, gb) < cos_turn
     a, b, ca, cb = a[turned], b[turned], ca[turned], cb[turned]
     # Point x = a + t (b - a) equally far from ca and cb: 2 x.(cb - ca) = |cb|^2 - |ca|^2.
     n = cb - ca
@@ -80,11 +100,15 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     ok = np.isfinite(t) & (t >= 0) & (t <= 1)
     points = a[ok] + t[ok, None] * (b[ok] - a[ok])
     radii = np.linalg.norm(points - ca[ok], axis=1)
-    return MedialSamples(points=points, radii=radii)
+    return points, radii
 
 
-def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
+def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.ndarray | None = None) -> Spheres:
     """Greedy packing: visit samples by decreasing radius; keep one if no kept sphere contains its centre.
+
+    rotation: [3, 3] from the samples' frame to the character's own (x left, y up, z front), when known:
+    samples equal in radius and in distance from the middle (a symmetric body's mirror pairs) are visited in
+    the order of their coordinates in that frame, the same however the mesh was turned in its file.
 
     min_radius: ignore samples thinner than this (in height units). The rig passes the field's finest cell
     edge: a thinner sphere sits in a crease the field cannot resolve, most often a bump of a scanned surface.
@@ -99,7 +123,15 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
         raise RigFailedError("the mesh encloses no volume that a skeleton could sit in (is it an open sheet, "
                              "or much thinner than it is wide?)")
     points, radii = samples.points[keep_mask], samples.radii[keep_mask]
-    order = np.lexsort((points[:, 2], points[:, 1], points[:, 0], -radii))  # deterministic ties
+    # Largest first, but radii within RADIUS_STEP of each other count as equal and go innermost first. Samples
+    # often tie on their radius (all along a prism-shaped limb of a low-poly mesh), and which of them is
+    # visited first decides which are kept, and through what each covers, the whole packing: by coordinates,
+    # a rounding error's worth of noise reorders them (a 256-triangle figure's 141 of 535 spheres moved). By
+    # distance from the middle of the samples' box the order is the same for the mesh turned or re-exported.
+    middle = (points.min(axis=0) + points.max(axis=0)) / 2
+    inward = np.sort((points - middle) ** 2, axis=1).sum(axis=1)   # summed in an order the axes' cannot change
+    own = points if rotation is None else points @ np.asarray(rotation, dtype=np.float64).T
+    order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], inward, -np.floor(radii / RADIUS_STEP)))
     points, radii = points[order], radii[order]
     tree = cKDTree(points)
     covered = np.zeros(len(points), dtype=bool)
@@ -113,32 +145,91 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0) -> Spheres:
     return Spheres(centers=points[kept], radii=radii[kept])
 
 
+RADIUS_STEP = 1e-4   # heights: medial radii this close are visited as equal (``pack_spheres``)
 NUDGE = 0.05   # of the finest cell: how far off a centre-plane corner its edge's nearest point is read
 
 
-def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, cb):
+def _plane_sides(field: DistanceField, a_idx, axis):
+    """(signs [3], rows) pairs: from which side (-1 or +1 along each axis) the edges ``rows`` read the centre
+    planes they lie in. Every edge reads from the lower sides; an edge lying in a centre plane reads from its
+    upper side too (in each combination, for an edge in two planes), so that the samples are the same whichever
+    way the body is turned or mirrored in the octree.
+    """
+    centre = 2 ** (field.max_level - 1)
+    in_plane = a_idx == centre                                  # [E, 3]; b differs from a along its axis only
+    in_plane[np.arange(len(axis)), axis] = False
+    for code in range(8):
+        signs = np.array([1.0 if code >> k & 1 else -1.0 for k in range(3)])
+        upper = signs > 0
+        # The edges for which this combination differs from the all-lower one on every upper axis.
+        rows = np.flatnonzero(np.all(in_plane[:, upper], axis=1)) if code else np.arange(len(axis))
+        if len(rows):
+            yield signs, rows
+
+
+def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, cb, signs=(-1.0, -1.0, -1.0),
+                           nudged: "_NudgedNearest | None" = None):
     """(ca, cb) with the nearest surface point of each edge end that lies on one of the octree's three centre
     planes read a little off the plane instead (``NUDGE`` of the finest cell): beyond the edge's end for the
-    plane across the edge, to the plane's lower side for a plane the edge lies in.
+    plane across the edge, to the side ``signs`` gives (per axis) for a plane the edge lies in.
 
     A mirror-symmetric body's mid-plane is the octree's centre plane (the cube is centred on the body's box),
     so every corner on it is equally far from the left and the right side: which of the two its stored nearest
     point lies on is a tie that the smallest change of the mesh flips (a 0 A.D. rhino's 814 mid-plane corners
     under 1e-6 noise), and with it whether the edges at it cross the medial surface, the samples there and the
     spheres packed from them. Read from beyond the end, an edge across the plane sees the crease at the plane
-    whatever the tie; an edge in the plane reads both its ends from one side, so it finds only the creases
-    that side has (its mirror image's are the same on a symmetric body).
+    whatever the tie; an edge in the plane is read from each side in turn (``_plane_sides``), so that turning
+    or mirroring the body, which swaps the sides, gives the same samples.
+
+    nudged: the nearest points of the nudged ends, asked for already (``_NudgedNearest``); None: asked here.
     """
     centre = 2 ** (field.max_level - 1)
-    rows = np.arange(len(axis))
     out = []
-    for idx, ends, nearest, sign in ((a_idx, a, ca, -1.0), (b_idx, b, cb, 1.0)):
-        on = idx == centre                       # [E, 3] on the centre plane normal to each axis
-        nudge = np.where(on, -1.0, 0.0)          # in the plane: to its lower side
-        nudge[rows, axis] = np.where(on[rows, axis], sign, 0.0)   # across it: beyond the edge's end
-        moved = np.flatnonzero(on.any(axis=1))
+    for idx, nearest, end in ((a_idx, ca, -1.0), (b_idx, cb, 1.0)):
+        moved = np.flatnonzero(np.any(idx == centre, axis=1))     # the ends with a nudge
         nearest = nearest.copy()
         if len(moved):
-            nearest[moved] = field.surface.closest(ends[moved] + nudge[moved] * NUDGE * field.finest)[1]
+            numbers, nudge = _nudges(field, idx[moved], axis[moved], end, signs)
+            nearest[moved] = (nudged or _NudgedNearest(field, [(numbers, nudge)])).nearest(numbers, nudge)
         out.append(nearest)
     return out[0], out[1]
+
+
+def _nudges(field: DistanceField, idx, axis, end: float, signs) -> tuple[np.ndarray, np.ndarray]:
+    """(grid numbers [E], nudges [E, 3] in {-1, 0, 1}) of one end of each edge (integer corners ``idx`` [E, 3],
+    edges along ``axis`` [E]; ``end`` -1 for the lower end, +1 for the upper): which way the end is read off
+    each centre plane it lies on (``_off_the_centre_planes``), zero along the planes it is not on."""
+    centre = 2 ** (field.max_level - 1)
+    rows = np.arange(len(axis))
+    on = idx == centre                                    # [E, 3] on the centre plane normal to each axis
+    nudge = np.where(on, np.asarray(signs, dtype=float)[None, :], 0.0)   # in the plane: to the side asked for
+    nudge[rows, axis] = np.where(on[rows, axis], end, 0.0)             # across it: beyond the edge's end
+    return grid_number(idx, field.max_level), nudge
+
+
+class _NudgedNearest:
+    """Nearest surface points of grid corners read ``NUDGE`` of the finest cell off them, each (corner, nudge)
+    queried once: a corner on a centre plane ends up to six edges, each read from up to seven sides
+    (``_plane_sides``), most of them the same nudged point (~30k queries of ~7k points at 86k faces).
+
+    requests: (grid numbers [N], nudges [N, 3] in {-1, 0, 1}) pairs, all queried together at construction."""
+
+    def __init__(self, field: DistanceField, requests):
+        keys = np.concatenate([self._key(n, d) for n, d in requests] or [np.zeros(0, dtype=np.int64)])
+        moved = np.concatenate([np.any(d != 0, axis=1) for _, d in requests] or [np.zeros(0, dtype=bool)])
+        self.keys = np.unique(keys[moved])
+        numbers, code = self.keys // 27, self.keys % 27
+        nudge = np.stack([code // 9, code // 3 % 3, code % 3], axis=1).astype(float) - 1.0
+        # As the points were read one edge end at a time: the end, then the nudge added (the same floats).
+        ends = field.origin + grid_index(numbers, field.max_level) * field.finest
+        self.points = field.surface.nearest(ends + nudge * NUDGE * field.finest)
+
+    @staticmethod
+    def _key(numbers, nudge) -> np.ndarray:
+        code = (nudge + 1).astype(np.int64) @ np.array([9, 3, 1])
+        return numbers.astype(np.int64) * 27 + code
+
+    def nearest(self, numbers, nudge) -> np.ndarray:
+        """[N, 3] nearest surface points of the corners ``numbers`` [N] nudged by ``nudge`` [N, 3] (asked for
+        at construction)."""
+        return self.points[np.searchsorted(self.keys, self._key(numbers, nudge))]

@@ -11,6 +11,11 @@ are the head's (muzzle, ears, horns) and the tail's. Each is measured by the lar
 the path from its tip to the graph's centre: a skull's radius at the head, a tail's own at the tail. The cue
 compares the bulkiest end in front of the feet's middle with the bulkiest behind it. Its weight is the
 template's ``head_bulk``, learned with the outline's (``learn/head_tail.py``).
+
+A third cue is where the body's weight lies between the feet (``weight_share_cue``): most four-legged animals
+carry more of it on their front legs (a head and neck in front of the shoulders, a thin tail or none behind the
+hips), which neither a cartoon's raised tail nor a low animal's thick one turns round. Its weight is the
+template's ``head_share``.
 """
 from __future__ import annotations
 
@@ -51,3 +56,21 @@ def end_bulk_cue(graph, vertices: np.ndarray) -> float:
         bulk[side] = max(bulk[side], float(graph.radii[near].max()))
     larger = max(bulk.values())
     return (bulk[True] - bulk[False]) / larger if larger > 0 else 0.0
+
+
+def weight_share_cue(graph, vertices: np.ndarray) -> float:
+    """How surely a shape faces +z rather than -z by where its volume lies between its feet, in [-1, 1]
+    (positive: the head is at +z): the medial spheres' volume-weighted (radius cubed) centre along z, minus the
+    feet's middle, over half the feet's spread along z (-1 over the back feet, +1 over the front ones), clipped.
+    Turning the shape round negates it.
+
+    graph: the sphere graph (centers [S, 3], radii [S]) in a candidate frame (+y up, front along z); vertices
+    [V, 3] the surface's vertices in that frame."""
+    y, z = vertices[:, 1], vertices[:, 2]
+    feet = z[y <= y.min() + FEET_BAND * np.ptp(y)]
+    half = (feet.max() - feet.min()) / 2
+    volume = graph.radii ** 3
+    if half <= 0 or volume.sum() <= 0:
+        return 0.0
+    centre = float(volume @ graph.centers[:, 2] / volume.sum())
+    return float(np.clip((centre - (feet.min() + feet.max()) / 2) / half, -1.0, 1.0))

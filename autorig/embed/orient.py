@@ -18,8 +18,17 @@ template has legs at both ends, and the embedding facing backwards often costs l
 3. The outline's head/tail cue (``head_tail_cue``): a head and neck reach farther beyond the feet than a tail,
    and a muzzle is carried higher than a tail's end; and the limb ends' bulk (``ends.end_bulk_cue``): a head
    is thick next to its tip, a tail thin, which a cartoon's big head over its front legs and raised tail do
-   not hide. Their weights are the template's ``head_tail`` and ``head_bulk``, learned together by
+   not hide; where the body's weight lies between the feet (``ends.weight_share_cue``): most animals carry
+   more of it on their front legs; and where the shape's crest lies between the feet (``crest_cue``): a head
+   with its ears or horns is carried highest, a long tail straight back is not. Their weights are the
+   template's ``head_tail``, ``head_bulk``, ``head_share`` and ``head_crest``, learned together by
    ``autorig learn`` from how far the embedding alone gets front and back wrong on its examples (0: not used).
+   They count only against a frame whose opposite (same up, facing the other way) they favour
+   (``cue_penalty``): they tell front from back, never up. Between two frames that share up and face opposite ways, the
+   embedding's penalty difference counts at most the template's ``head_gap`` (learned with the weights; None:
+   all of it): a four-legged template fits an animal about as badly either way round, and on shapes it fits
+   badly (a cartoon, long legs) the difference is large and as often wrong as right (the corpus animals: the
+   embedding alone faces 9 of 31 the right way).
 4. The glTF convention (+y up, facing +z), preferred by a small handicap on every other frame: a tie-breaker.
    It was ten times larger; then every corpus biped turned to face -z kept facing +z (0 of 24), since the
    embedding tells a biped's front from its back by about 0.1-0.4.
@@ -35,6 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..input.mesh import spread
 from .ends import FEET_BAND
 from .search import MAX_EXPANSIONS
 
@@ -45,6 +55,7 @@ DETECTION_EXPANSIONS = 200  # A* budget per fully searched frame (its greedy emb
 FULL_SEARCHES = 3            # frames searched after the greedy ranking
 DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for the two best when they face opposite ways (below)
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
+CREST_BAND = 0.05  # the part of the shape's height at its top whose place along z is its crest's
 MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
 MID_PLANE_STEPS = 8    # grid steps on each side of the centre, before the search between the best's neighbours
 MID_PLANE_SAMPLES = 300  # vertices mirrored (each plane tried costs an exact distance query per vertex)
@@ -55,8 +66,9 @@ AXIS_PLANE_SAMPLES = 200  # the grid alone misses a shield's mid-plane, 5 % of t
 
 @dataclass
 class Orientation:
-    """up, front: the chosen axis specs ('y', '-z', ...); costs {'up/front': embedding penalty, plus the
-    handicap of leaving the glTF convention, minus the weighted head/tail cues} of every candidate tried;
+    """up, front: the chosen axis specs ('y', '-z', ...); costs {'up/front': embedding penalty (at most the
+    opposite frame's plus the template's ``head_gap``), plus the handicap of leaving the glTF convention and
+    what the weighted head/tail cues hold against it (``cue_penalty``)} of every candidate tried;
     margin the runner-up's cost minus the winner's (0 when nothing was searched);
     symmetry [3] mirror error of each input axis (fraction of the size; the smallest is left-right)."""
     up: str
@@ -71,8 +83,8 @@ def mirror_errors(surface, samples: int = 1000) -> np.ndarray:
     bounding-box centre normal to x, y and z in turn (mean distance / bounding-box diagonal).
     ``surface`` is a ``SurfaceQuery`` in a frame whose axes are the input's (any scale and origin)."""
     vertices = surface.vertices
-    # Evenly spread vertices: enough to rank three axes, and each costs a distance query per axis.
-    points = vertices[np.unique(np.linspace(0, len(vertices) - 1, samples).astype(np.int64))]
+    # Spread vertices: enough to rank three axes, and each costs a distance query per axis.
+    points = vertices[spread(vertices, samples)]
     centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
     diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0)))
     out = np.zeros(3)
@@ -99,16 +111,18 @@ def mid_plane(distance, vertices: np.ndarray, samples: int = MID_PLANE_SAMPLES) 
 
 
 def mirror_plane(distance, vertices: np.ndarray, axis: int, samples: int = MID_PLANE_SAMPLES,
-                 steps: int = MID_PLANE_STEPS, exact: bool = True) -> tuple[float, float]:
+                 steps: int = MID_PLANE_STEPS, exact: bool = True, points: np.ndarray | None = None
+                 ) -> tuple[float, float]:
     """(position, error) of the plane normal to ``axis`` across which the surface is most nearly its own mirror
     image. The error of a plane is the median distance of the mirrored vertices to the surface (in the
     vertices' units), so that a prop whose mirror image lands far from everything does not pull the plane its
     way; the box's centre stays unless another plane does better. The planes tried: a grid of ``steps`` on
     each side of the centre, then (``exact``) a bounded search between the grid's best one's neighbours.
 
-    distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices."""
+    distance: unsigned distance [N] to the surface of points [N, 3]; vertices [V, 3] the surface's vertices;
+    points: ``vertices[spread(vertices, samples)]`` when the caller has them already (the same for each axis)."""
     from scipy.optimize import minimize_scalar
-    points = vertices[np.unique(np.linspace(0, len(vertices) - 1, samples).astype(np.int64))]
+    points = vertices[spread(vertices, samples)] if points is None else points
     lo, hi = float(vertices[:, axis].min()), float(vertices[:, axis].max())
     centre, width = (lo + hi) / 2, hi - lo
 
@@ -148,13 +162,50 @@ def head_tail_cue(vertices: np.ndarray) -> float:
     return float(np.clip((reach + tips) / height, -1.0, 1.0))
 
 
+def crest_cue(vertices: np.ndarray) -> float:
+    """How surely a shape faces +z rather than -z by where its top lies, in [-1, 1] (positive: the head is at
+    +z): the mean z of the vertices in the top ``CREST_BAND`` of its height, minus the feet's middle, over half
+    the feet's spread along z (-1 over the back feet, +1 over the front ones), clipped. A head, its ears or
+    horns are most animals' highest part; a tail held out straight behind (a fox's, a wolf's) reaches far and
+    ends high, but below the ears. Turning the shape round negates it. vertices [V, 3] in a candidate frame
+    (+y up, front along z)."""
+    y, z = vertices[:, 1], vertices[:, 2]
+    height = float(np.ptp(y))
+    if height <= 0:
+        return 0.0
+    feet = z[y <= y.min() + FEET_BAND * height]
+    half = (feet.max() - feet.min()) / 2
+    if half <= 0:
+        return 0.0
+    top = z[y >= y.max() - CREST_BAND * height]
+    return float(np.clip((top.mean() - (feet.min() + feet.max()) / 2) / half, -1.0, 1.0))
+
+
 def weighted_cues(template, graph, vertices: np.ndarray) -> float:
     """The template's head/tail cues of a shape in a candidate frame, weighed (penalty units, positive: its
-    head is at +z): the outline's (``head_tail_cue``) and the limb ends' bulk (``ends.end_bulk_cue``).
+    head is at +z): the outline's (``head_tail_cue``), the limb ends' bulk (``ends.end_bulk_cue``), the
+    weight share (``ends.weight_share_cue``) and the crest's place (``crest_cue``).
     graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it."""
-    from .ends import end_bulk_cue
+    from .ends import end_bulk_cue, weight_share_cue
     outline = template.head_tail * head_tail_cue(vertices) if template.head_tail else 0.0
-    return outline + (template.head_bulk * end_bulk_cue(graph, vertices) if template.head_bulk else 0.0)
+    bulk = template.head_bulk * end_bulk_cue(graph, vertices) if template.head_bulk else 0.0
+    share = template.head_share * weight_share_cue(graph, vertices) if template.head_share else 0.0
+    return outline + bulk + share + (template.head_crest * crest_cue(vertices) if template.head_crest else 0.0)
+
+
+def bounded_costs(costs: dict, gap: float | None, floor: dict | None = None) -> dict:
+    """{frame: cost} with each frame's cost at most its opposite's (same up, front reversed) plus ``gap``
+    (``Template.head_gap``; None: unchanged): the embedding's front/back difference, bounded.
+    costs: {(up, front): penalty}; floor: {(up, front): a lower bound on the penalty} to bound instead of
+    the frame's own cost (its opposite's cost still bounds it: a lower bound on the bounded cost)."""
+    own = floor if floor is not None else costs
+    if gap is None:
+        return dict(own)
+    out = {}
+    for (u, f), cost in own.items():
+        opposite = (u, _flipped(f))
+        out[(u, f)] = min(cost, (floor or costs).get(opposite, np.inf) + gap)
+    return out
 
 
 def working_axes(up: str, front: str) -> tuple[str, str]:
@@ -199,19 +250,21 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     left_axes = [a for a in order[:2] if symmetry[a] <= SYMMETRY_AMBIGUITY * symmetry[order[0]] + 1e-4]
     # A spear held forward or a shield to one side moves the box's centre, across which ``mirror_errors``
     # mirrors: the axis most nearly symmetric across its own best plane is tried too.
+    spread_vertices = prepared.work_vertices[spread(prepared.work_vertices, AXIS_PLANE_SAMPLES)]
     planes = [mirror_plane(field.surface_distance, prepared.work_vertices, a, AXIS_PLANE_SAMPLES,
-                           AXIS_PLANE_STEPS)[1] for a in range(3)]
+                           AXIS_PLANE_STEPS, points=spread_vertices)[1] for a in range(3)]
     best_plane = next(a for a in np.argsort(planes, kind="stable") if up == "auto" or a != AXES.index(up[-1]))
     left_axes += [best_plane] if best_plane not in left_axes else []
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
     # Greedy embeddings rank the frames (an upside-down frame costs many times more); the best few are then
     # searched on a short budget, and the two best of those longer when front and back hang on them (below).
-    problems, prior = {}, {}
+    problems, cues = {}, {}
     for u, f in candidates:
         change = prepared.frame_change(u, f)
         moved = graph.moved(change.apply(graph.centers), change.scale)
         problems[(u, f)] = _problem(moved, template)
-        prior[(u, f)] = _handicap(u, f) - weighted_cues(template, moved, change.apply(prepared.work_vertices))
+        cues[(u, f)] = weighted_cues(template, moved, change.apply(prepared.work_vertices))
+    prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds, searched_long = {}, set()
     for key in sorted(costs, key=lambda k: (costs[k] + prior[k], k))[:FULL_SEARCHES]:
@@ -221,10 +274,14 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     # they are compared on longer searches. Not when the runner-up cannot beat the leader whatever its search
     # finds (its A* bound says so), nor between frames that disagree on up or on the front axis (their gaps
     # are large, and a shape the template does not fit would run out both searches for nothing).
+    # A template's ``head_gap`` bounds how much their embeddings' difference counts (``bounded_costs``).
+    gap = template.head_gap
     while len(bounds) > 1:
-        leader, runner_up = sorted(bounds, key=lambda k: (costs[k] + prior[k], k))[:2]
+        bounded = bounded_costs({k: costs[k] for k in bounds}, gap)
+        lower = bounded_costs({k: costs[k] for k in bounds}, gap, {k: bounds[k] for k in bounds})
+        leader, runner_up = sorted(bounds, key=lambda k: (bounded[k] + prior[k], k))[:2]
         if (runner_up != (leader[0], _flipped(leader[1]))
-                or bounds[runner_up] + prior[runner_up] >= costs[leader] + prior[leader]):
+                or lower[runner_up] + prior[runner_up] >= bounded[leader] + prior[leader]):
             break
         todo = [k for k in (leader, runner_up) if bounds[k] < costs[k] and k not in searched_long]
         if not todo:
@@ -232,11 +289,21 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
         for key in todo:
             costs[key], bounds[key] = _embedding_cost(problems[key], DECISION_EXPANSIONS)
             searched_long.add(key)
-    costs = {f"{u}/{f}": cost + prior[(u, f)] for (u, f), cost in costs.items()}
+    costs = {f"{u}/{f}": cost + prior[(u, f)] for (u, f), cost in bounded_costs(costs, gap).items()}
     ranked = sorted(costs, key=lambda k: (costs[k], k))
     margin = costs[ranked[1]] - costs[ranked[0]] if len(ranked) > 1 else 0.0
     u, f = ranked[0].split("/")
     return Orientation(u, f, costs, float(margin), [float(v) for v in symmetry])
+
+
+def cue_penalty(cues: dict, frame: tuple[str, str]) -> float:
+    """How much the weighted head/tail cues ({(up, front): ``weighted_cues``}) hold against ``frame``: by how
+    much they favour the frame with the same up facing the other way (0 when they favour this one, or when that
+    frame is not a candidate). The cues tell front from back and nothing else: in a frame with the wrong up
+    they read a leg or the back as a head, and must not outweigh the embedding there (a stag read lying on its
+    side, its antlers the top of its body: 7.5 against 7.7 had the cues counted in full)."""
+    opposite = (frame[0], _flipped(frame[1]))
+    return max(cues.get(opposite, -np.inf) - cues[frame], 0.0)
 
 
 def _flipped(axis: str) -> str:

@@ -67,9 +67,10 @@ def skeleton_symmetry(vertices: np.ndarray, faces: np.ndarray, joints: np.ndarra
     """(symmetry part, the mesh's left-right symmetry, the chain ends' symmetry), each in [0, 1]; the mirror
     plane is the middle of the mesh's box across x (canonical frame, unit height)."""
     import igl
+    from ..input.mesh import spread
 
     middle = 0.5 * (vertices[:, 0].min() + vertices[:, 0].max())
-    sample = vertices[np.linspace(0, len(vertices) - 1, min(SAMPLE, len(vertices))).astype(np.int64)]
+    sample = vertices[spread(vertices, SAMPLE)]
     mirrored = sample * [-1.0, 1.0, 1.0] + [2 * middle, 0.0, 0.0]
     tree = igl.AABB()
     tree.init(vertices, faces)

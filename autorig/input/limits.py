@@ -83,8 +83,8 @@ def check_layers(vertices, faces) -> None:
     """Refuse, before the distance field, a working mesh whose triangles' boxes overlap more than
     ``MAX_LAYERS`` deep (see above): a soup of large crossing triangles, not a surface."""
     import numpy as np
-    corners = vertices[faces]
-    extent = corners.max(axis=1) - corners.min(axis=1)
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    extent = np.maximum(np.maximum(a, b), c) - np.minimum(np.minimum(a, b), c)   # [F, 3], no [F, 3, 3] reductions
     box = vertices.max(axis=0) - vertices.min(axis=0)
 
     def area(e):

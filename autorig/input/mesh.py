@@ -375,7 +375,7 @@ class FrameChange:
 
 
 def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh", *,
-            checked: bool = False) -> PreparedMesh:
+            checked: bool = False, unit: str | None = None) -> PreparedMesh:
     """Check a mesh and bring it into the canonical frame (see the module docstring).
 
     vertices  [V, 3] input vertex positions
@@ -383,6 +383,9 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
     up, front the input-space axes ('x', '-z', ...) that point up and the way the character faces
     name      how error messages refer to the mesh (e.g. its file name)
     checked   the arrays are ``check_mesh``'s (or ``load_mesh``'s) output: not checked again
+    unit      the input axis whose extent is the frame's unit of length (default: ``up``, the height); the rig
+              discretizes in the input's own axes but in units of the height the user gave, so that turning
+              a Z-up mesh about its up axis does not rescale its distance field
 
     The feet, centring and height come from the bounding box of the vertices the triangles use, so stray
     unreferenced vertices do not move the frame. Raises ``InputError`` (see ``check_mesh``) or ``AxisError``.
@@ -397,6 +400,10 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
     centre = np.array([lo[0] / 2 + hi[0] / 2, lo[1], lo[2] / 2 + hi[2] / 2])
     offset = rotation.T @ centre
     scale = 1.0 / height
+    if unit is not None and unit.lstrip("+-") != up.lstrip("+-"):
+        along = V[used] @ frame_rotation(unit, "z" if unit.lstrip("+-") != "z" else "x")[1]
+        height = float(along.max() - along.min())
+        scale = 1.0 / height
     with np.errstate(over="ignore", invalid="ignore"):
         canonical = scale * ((V - offset) @ rotation.T)
     if not np.isfinite(scale) or not np.isfinite(canonical).all():
@@ -431,3 +438,52 @@ def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):
     G = G[_first_triangles(G, len(positions))]
     used, renumber = used_vertices(len(positions), G)
     return positions[used], renumber[G], renumber[merged]
+
+
+def spread(points: np.ndarray, count: int) -> np.ndarray:
+    """Indices of about ``count`` of ``points`` [N, 3] spread over their extent, chosen by where the points
+    are and not by their order: the point nearest the centre of each occupied cell of a grid centred on the
+    points' box (about ``count`` cells occupied). Taking every k-th point instead picks other points when a
+    file lists its vertices in another order, and turns a mesh's measured symmetry, and the rig, with it; this
+    choice is the same for any order, for the mesh turned or mirrored about its box's centre, and moves by
+    one point of a cell when a rounding error carries a point across the cell's middle."""
+    points = np.asarray(points, dtype=np.float64)
+    if len(points) <= count:
+        return np.arange(len(points))
+    lo, hi = column_min(points), column_max(points)
+    centre = (lo + hi) / 2
+    size = float(np.linalg.norm(hi - lo)) / np.sqrt(count) or 1.0
+
+    def cells(size: float):
+        key = np.floor((points - centre) / size + 0.5).astype(np.int64)
+        # The cells numbered in the order of their integer coordinates (x, then y, then z), as np.unique(key,
+        # axis=0) numbers them, through one integer per point: sorting rows is ~10 times slower.
+        shifted = key - column_min(key)
+        span = column_max(shifted) + 1
+        _, cell = np.unique((shifted[:, 0] * span[1] + shifted[:, 1]) * span[2] + shifted[:, 2],
+                            return_inverse=True)
+        return key, cell.reshape(-1)
+
+    key, cell = cells(size)
+    size *= np.sqrt((cell.max() + 1) / count)     # occupied cells go as the surface's area over size squared
+    key, cell = cells(size)
+    off = np.linalg.norm(points - (centre + key * size), axis=1)
+    # nearest first within each cell; exact ties (a symmetric mesh's mirror pair) by position. Only the points
+    # as near as their cell's nearest can win, so only they are sorted.
+    nearest = np.full(cell.max() + 1, np.inf)
+    np.minimum.at(nearest, cell, off)
+    tied = np.flatnonzero(off == nearest[cell])
+    order = tied[np.lexsort((points[tied, 2], points[tied, 1], points[tied, 0], cell[tied]))]
+    first = order[np.r_[True, cell[order][1:] != cell[order][:-1]]]
+    return np.sort(first)
+
+
+def column_min(array: np.ndarray) -> np.ndarray:
+    """``array.min(axis=0)`` of an [N, K] array with few columns, column by column: numpy reduces a C-order
+    [N, 3] array along its rows some 8 times slower (1.6 ms against 0.2 ms at 86k rows)."""
+    return np.array([array[:, k].min() for k in range(array.shape[1])], dtype=array.dtype)
+
+
+def column_max(array: np.ndarray) -> np.ndarray:
+    """``array.max(axis=0)``, column by column (see ``column_min``)."""
+    return np.array([array[:, k].max() for k in range(array.shape[1])], dtype=array.dtype)

@@ -15,6 +15,7 @@ import numpy as np
 
 NECK_BAND = 0.55         # fraction of the height above which a standing body's neck can be
 NECK_PROMINENCE = 0.2    # the valley's depth against the lower of its two sides, as a fraction of the widest
+NECK_FLOOR = 0.05        # the neck's floor: samples this near the deepest valley's depth (of the widest) count
 PROFILE_HEIGHTS = 121    # heights sampled over the band
 PROFILE_DEPTHS = 61      # points across the body's depth (z) at each height
 
@@ -49,4 +50,13 @@ def neck_fraction(field) -> float | None:
     best = int(np.argmax(prominence))
     if prominence[best] < NECK_PROMINENCE * widest:
         return None
-    return float(fractions[best])
+    # Not the single deepest sample: a neck is often as narrow over a stretch (a low-poly neck is a prism), and
+    # which of its samples is deepest by a hair is noise. The valley's floor within NECK_FLOOR of its depth,
+    # the run of samples around the deepest, weighted by how far each dips below that level.
+    weight = np.maximum(prominence - (prominence[best] - NECK_FLOOR * widest), 0.0)
+    run = np.flatnonzero(weight > 0)
+    breaks = np.flatnonzero(np.diff(run) > 1)
+    starts, ends = np.r_[run[0], run[breaks + 1]], np.r_[run[breaks], run[-1]]
+    k = int(np.searchsorted(ends, best))
+    sl = slice(starts[k], ends[k] + 1)
+    return float(np.average(fractions[sl], weights=weight[sl]))

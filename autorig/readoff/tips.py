@@ -114,14 +114,19 @@ def _body(vertices: np.ndarray, faces: np.ndarray, count: int, piece: np.ndarray
 
 def _tops(graph, reach: np.ndarray) -> np.ndarray:
     """[V] the local maximum of ``reach`` each vertex climbs to, always stepping to its highest neighbour."""
-    coo = graph.tocoo()
-    a, b = coo.row, coo.col
-    order = np.lexsort((b, reach[b], a))    # by vertex, then its neighbours by rising reach
-    a, b = a[order], b[order]
-    last = np.flatnonzero(np.r_[a[1:] != a[:-1], True])    # each vertex's highest neighbour
+    graph = graph.tocsr()
+    starts, neighbour = graph.indptr[:-1], graph.indices.astype(np.int64)
+    has = np.flatnonzero(np.diff(graph.indptr) > 0)            # vertices with a neighbour
+    row = np.repeat(np.arange(len(reach)), np.diff(graph.indptr))
+    # each vertex's highest neighbour, the highest-numbered among equals: row by row reductions over the CSR
+    # rows (a lexsort of every edge by vertex, reach and number did the same, 5x slower at 60k vertices)
+    highest = np.full(len(reach), -np.inf)
+    highest[has] = np.maximum.reduceat(reach[neighbour], starts[has])
+    best = np.full(len(reach), -1, dtype=np.int64)
+    best[has] = np.maximum.reduceat(np.where(reach[neighbour] == highest[row], neighbour, -1), starts[has])
     up = np.arange(len(reach))
-    climbs = reach[b[last]] > reach[a[last]]
-    up[a[last][climbs]] = b[last][climbs]
+    climbs = has[reach[best[has]] > reach[has]]
+    up[climbs] = best[climbs]
     for _ in range(64):
         nxt = up[up]
         if np.array_equal(nxt, up):
