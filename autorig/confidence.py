@@ -11,7 +11,8 @@ extra      limbs of the shape that the template left empty (an octopus rigged as
            stand out at least 60% as much as the rigged limbs (median), counted against the template's
            own number of limb ends: 1 / (1 + unused / limb ends)
 inside     joints outside the mesh: the fraction of non-tip joints inside
-symmetry   mirrored joints that are not mirror images: 1 / (1 + (mean mismatch / 10% of height)^2)
+symmetry   mirrored joints that are not mirror images where the mesh is (each pair's mismatch weighted by
+           ``refine.pair_symmetry``): 1 / (1 + (mean mismatch / 10% of height)^2)
 search     0.8 when the A* search ran out of budget and took its greedy embedding
 =========  =========================================================================================
 
@@ -92,7 +93,10 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     if template.symmetry:
         left = np.array([i for i, _ in template.symmetry])
         right = np.array([j for _, j in template.symmetry])
-        mismatch = float(np.mean(np.linalg.norm(joints[left] * [-1, 1, 1] - joints[right], axis=1)))
+        # Counted where the mesh is its own mirror image (``refine.pair_symmetry``): a stride's legs are not.
+        from .embed.refine import pair_symmetry
+        weight = pair_symmetry(field, joints, left, right)
+        mismatch = float(np.mean(weight * np.linalg.norm(joints[left] * [-1, 1, 1] - joints[right], axis=1)))
     else:
         mismatch = 0.0
     parts = {
