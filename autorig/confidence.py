@@ -14,6 +14,9 @@ inside     joints outside the mesh: the fraction of non-tip joints inside
 symmetry   mirrored joints that are not mirror images where the mesh is (each pair's mismatch weighted by
            ``refine.pair_symmetry``): 1 / (1 + (mean mismatch / 10% of height)^2)
 search     0.8 when the A* search ran out of budget and took its greedy embedding
+sides      a mirror pair near the trunk (shoulders and elbows, hips and knees: ``SIDE_DEPTH``) each on the
+           other's side, as when an arm's chain crossed to the other arm: 0.5 for each such pair. Hands and
+           feet may cross (arms folded, legs crossed); elbows and knees do not
 =========  =========================================================================================
 
 Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
@@ -28,7 +31,7 @@ template, whether its head and tail chains reach the mesh's front and back (``en
 output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height) rather than
 wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above "probably
 right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
-never lower it. The model's probability is then multiplied by the fit, limbs, extra and search parts
+never lower it. The model's probability is then multiplied by the fit, limbs, extra, search and sides parts
 (``beyond_calibration``): the failures those stand for are ones no calibration rig shows, so the model cannot
 have learned them. ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
@@ -70,6 +73,10 @@ FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit p
 FOOT_BAND = 0.04
 SHIN_BAND = (0.10, 0.25)
 FOOT_REACH = 0.15
+# ``sides``: the mirror pairs this many bones or fewer from the mid-plane's joints (1: shoulders, hips; 2: elbows,
+# knees), and how far (heights) past each other across the mid-plane two of them must be to count as crossed.
+SIDE_DEPTH = 2
+SIDE_MARGIN = 0.02
 
 
 def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embedding, template: Template,
@@ -106,6 +113,7 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         "inside": inside,
         "symmetry": 1.0 / (1.0 + (mismatch / 0.1) ** 2),
         "search": 1.0 if embedding.optimal else 0.8,
+        "sides": 0.5 ** len(crossed_pairs(joints, template)),
     }
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
@@ -124,7 +132,27 @@ def beyond_calibration(parts: dict, free_per_bone: float) -> float:
     limbless torso embedded with a cost per bone ten times theirs and limb ends on bumps scored 0.52 without
     this). The fit is taken without the direction term, like the model's cost (a T pose is no failure). On the
     corpus's cross-validated biped rigs it moves no confidence by more than 0.01."""
-    return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"])
+    return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"]
+                 * parts.get("sides", 1.0))
+
+
+def crossed_pairs(joints: np.ndarray, template: Template) -> list[tuple[int, int]]:
+    """The template's mirror pairs within ``SIDE_DEPTH`` bones of the mid-plane's joints lie each on
+    the other's side of the body in ``joints`` [J, 3] (canonical frame: x = 0 the mid-plane) by more than
+    ``SIDE_MARGIN``: an arm's chain that crossed to the other arm (a rig of a character with its arms folded
+    in front of it, its elbows swapped). Hands and feet are not counted: they may cross in a right rig."""
+    mirror = template.mirror_of()
+    crossed = []
+    for i, j in template.symmetry:
+        depth, k = 0, int(i)
+        while k >= 0 and mirror[k] != k:
+            k, depth = int(template.parents[k]), depth + 1
+        if k < 0 or depth > SIDE_DEPTH:
+            continue
+        side = np.sign(template.positions[i, 0] - template.positions[j, 0])
+        if side * (joints[i, 0] - joints[j, 0]) < -SIDE_MARGIN:
+            crossed.append((int(i), int(j)))
+    return crossed
 
 
 def _fit_part(per_bone: float) -> float:
