@@ -98,7 +98,7 @@ def pair_symmetry(field, joints: np.ndarray, left: np.ndarray, right: np.ndarray
     """[P] in (0, 1]: how nearly the mesh about each mirror pair of ``joints`` [J, 3] (``left`` [P], ``right``
     [P] indices; canonical frame, mid-plane x = 0, one unit tall) is its own mirror image: the surface points
     (``spread`` samples of the mesh's vertices) within ``SYMMETRY_REACH`` of either joint, mirrored across
-    x = 0, their mean distance to the surface d, and 1 / (1 + (d / SYMMETRY_SCALE)^2); 1 for a pair with no
+    x = 0, their mean distance to the surface d (each weighted by a bump falling smoothly to 0 at the reach), and 1 / (1 + (d / SYMMETRY_SCALE)^2); 1 for a pair with no
     surface point that near."""
     from ..input.mesh import spread
     out = np.ones(len(left))
@@ -106,16 +106,18 @@ def pair_symmetry(field, joints: np.ndarray, left: np.ndarray, right: np.ndarray
     if not len(left) or not len(vertices):
         return out
     points = vertices[spread(vertices, SYMMETRY_SAMPLES)]
-    near = [np.flatnonzero((np.linalg.norm(points - joints[i], axis=1) < SYMMETRY_REACH)
-                           | (np.linalg.norm(points - joints[j], axis=1) < SYMMETRY_REACH))
-            for i, j in zip(left, right)]
-    pair = np.concatenate([np.full(len(n), k) for k, n in enumerate(near)]).astype(np.int64)
-    if not len(pair):
+    # Each point counts by a smooth bump of its distance to the nearer joint of the pair, (1 - (d / reach)^2)^2,
+    # not all or nothing at the reach: a joint that moves a little then moves the weight a little (a hard edge
+    # moved a 0 A.D. Boudicca's wrist 0.7 % of the height under 1e-6 noise).
+    near = np.minimum(np.linalg.norm(points[None] - joints[left][:, None], axis=2),
+                      np.linalg.norm(points[None] - joints[right][:, None], axis=2)) / SYMMETRY_REACH
+    bump = np.clip(1.0 - near ** 2, 0.0, None) ** 2                  # [P, N]
+    used = np.flatnonzero(bump.max(axis=0) > 0)
+    if not len(used):
         return out
-    taken = np.concatenate(near)
-    distance = field.surface_distance(points[taken] * [-1.0, 1.0, 1.0])
-    count = np.bincount(pair, minlength=len(left))
-    mean = np.bincount(pair, weights=distance, minlength=len(left)) / np.maximum(count, 1)
+    distance = field.surface_distance(points[used] * [-1.0, 1.0, 1.0])
+    count = bump[:, used].sum(axis=1)
+    mean = (bump[:, used] @ distance) / np.maximum(count, 1e-12)
     return np.where(count > 0, 1.0 / (1.0 + (mean / SYMMETRY_SCALE) ** 2), 1.0)
 
 
