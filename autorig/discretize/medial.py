@@ -26,11 +26,9 @@ EDGE_AXIS = np.argmax(CORNERS[EDGES[:, 1]] - CORNERS[EDGES[:, 0]], axis=1)   # [
 
 @dataclass
 class MedialSamples:
-    """points [M, 3] on the approximate medial surface; radii [M] their distance to the surface; clear [M] in
-    (0, 1], how clearly each crossing's edge turns past the threshold (``TURN_BAND``; None: all clear)."""
+    """points [M, 3] on the approximate medial surface; radii [M] their distance to the surface."""
     points: np.ndarray
     radii: np.ndarray
-    clear: np.ndarray | None = None
 
 
 @dataclass
@@ -68,6 +66,7 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     a = field.origin + a_idx * field.finest
     b = field.origin + b_idx * field.finest
     ca, cb = field.corner_nearest[ia], field.corner_nearest[ib]
+    cos_turn = np.cos(np.radians(min_angle_degrees))
     sides = list(_plane_sides(field, a_idx, axis))
     # The ends on a centre plane, which are read off it: a few percent of the edges' ends.
     centre = 2 ** (field.max_level - 1)
@@ -75,26 +74,23 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     nudged = _NudgedNearest(field, [_nudges(field, idx[moved], axis[moved], end, signs)
                                     for signs, rows in sides for idx, end in ((a_idx, -1.0), (b_idx, 1.0))
                                     for moved in [rows[on_plane[end][rows]]]])
-    points, radii, clear = [], [], []
+    points, radii = [], []
     for signs, rows in sides:
         part = (lambda x: x) if len(rows) == len(axis) else (lambda x: x[rows])   # every edge: no copies
         sa, sb = _off_the_centre_planes(field, part(a_idx), part(b_idx), part(axis), part(a), part(b),
                                         part(ca), part(cb), signs, nudged)
-        p, r, c = _crossings(part(a), part(b), sa, sb, part(da), part(db), min_angle_degrees)
+        p, r = _crossings(part(a), part(b), sa, sb, part(da), part(db), cos_turn)
         points.append(p)
         radii.append(r)
-        clear.append(c)
-    return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii), clear=np.concatenate(clear))
+    return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii))
 
 
-def _crossings(a, b, ca, cb, da, db, min_angle_degrees):
-    """Where the edges a-b cross the medial surface of the nearest points ca, cb: (points, radii, clear), clear
-    how far past ``min_angle_degrees`` the two nearest-point directions turn (``clearness``)."""
+def _crossings(a, b, ca, cb, da, db, cos_turn):
+    """Where the edges a-b cross the medial surface of the nearest points ca, cb: (points, radii)."""
     ga = (a - ca) / da[:, None]
     gb = (b - cb) / db[:, None]
-    cos = np.einsum("ij,ij->i", ga, gb)
-    turned = cos < np.cos(np.radians(min_angle_degrees))
-    a, b, ca, cb, cos = a[turned], b[turned], ca[turned], cb[turned], cos[turned]
+    turned = np.einsum("ij,ij->i", ga, gb) < cos_turn
+    a, b, ca, cb = a[turned], b[turned], ca[turned], cb[turned]
     # Point x = a + t (b - a) equally far from ca and cb: 2 x.(cb - ca) = |cb|^2 - |ca|^2.
     n = cb - ca
     denom = np.einsum("ij,ij->i", b - a, n)
@@ -104,15 +100,7 @@ def _crossings(a, b, ca, cb, da, db, min_angle_degrees):
     ok = np.isfinite(t) & (t >= 0) & (t <= 1)
     points = a[ok] + t[ok, None] * (b[ok] - a[ok])
     radii = np.linalg.norm(points - ca[ok], axis=1)
-    return points, radii, clearness(cos[ok], min_angle_degrees)
-
-
-def clearness(cos_turn: np.ndarray, min_angle_degrees: float) -> np.ndarray:
-    """[M] in (0, 1]: how clearly edges whose nearest-point directions turn by arccos(``cos_turn``) cross
-    the medial surface, 0 at ``min_angle_degrees`` rising smoothly (C1) to 1 at ``TURN_BAND`` degrees past it."""
-    angle = np.degrees(np.arccos(np.clip(cos_turn, -1.0, 1.0)))
-    t = np.clip((angle - min_angle_degrees) / TURN_BAND, 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
+    return points, radii
 
 
 def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.ndarray | None = None) -> Spheres:
@@ -135,11 +123,6 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
         raise RigFailedError("the mesh encloses no volume that a skeleton could sit in (is it an open sheet, "
                              "or much thinner than it is wide?)")
     points, radii = samples.points[keep_mask], samples.radii[keep_mask]
-    # A crossing whose edge barely turns past the threshold is visited as if thinner, by as much as it is
-    # marginal: one that appears or goes as a rounding error turns its edge across the threshold is then
-    # visited after the clear crossings around it, and mostly found covered by them, rather than taking their
-    # place (a 0 A.D. hippo's 0.2-height sphere, and with it the neck 4.9 % of the height, under 1e-6 noise).
-    rank = radii if samples.clear is None else radii * samples.clear[keep_mask]
     # Largest first, but radii within RADIUS_STEP of each other count as equal and go innermost first. Samples
     # often tie on their radius (all along a prism-shaped limb of a low-poly mesh), and which of them is
     # visited first decides which are kept, and through what each covers, the whole packing: by coordinates,
@@ -148,8 +131,7 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
     middle = (points.min(axis=0) + points.max(axis=0)) / 2
     inward = np.sort((points - middle) ** 2, axis=1).sum(axis=1)   # summed in an order the axes' cannot change
     own = points if rotation is None else points @ np.asarray(rotation, dtype=np.float64).T
-    order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], np.floor(np.sqrt(inward) / RADIUS_STEP),
-                        -np.floor(rank / RADIUS_STEP)))
+    order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], inward, -np.floor(radii / RADIUS_STEP)))
     points, radii = points[order], radii[order]
     tree = cKDTree(points)
     covered = np.zeros(len(points), dtype=bool)
@@ -164,7 +146,6 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
 
 
 RADIUS_STEP = 1e-4   # heights: medial radii this close are visited as equal (``pack_spheres``)
-TURN_BAND = 5.0      # degrees past the medial threshold over which a crossing becomes clear (``clearness``)
 NUDGE = 0.05   # of the finest cell: how far off a centre-plane corner its edge's nearest point is read
 
 
