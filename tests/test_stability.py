@@ -138,12 +138,9 @@ def test_rounding_noise_does_not_move_the_spartans_hips():
     assert move < 0.005, joint
 
 
-def _kept(points, radii, clear=None) -> np.ndarray:
+def _kept(points, radii) -> np.ndarray:
     from autorig.discretize.medial import MedialSamples, pack_spheres
-    samples = MedialSamples(points=np.asarray(points, float), radii=np.asarray(radii, float))
-    if clear is not None:
-        samples.clear = np.asarray(clear, float)
-    return pack_spheres(samples).centers
+    return pack_spheres(MedialSamples(points=np.asarray(points, float), radii=np.asarray(radii, float))).centers
 
 
 def test_of_two_mirror_twins_the_packing_keeps_the_same_one_whichever_is_nudged_inward():
@@ -160,20 +157,3 @@ def test_of_two_mirror_twins_the_packing_keeps_the_same_one_whichever_is_nudged_
         kept.append(centers[np.abs(centers[:, 1]) < 0.5, 0])
     assert len(kept[0]) == len(kept[1]) == 1
     assert np.sign(kept[0][0]) == np.sign(kept[1][0])
-
-
-def test_a_sample_at_the_medial_threshold_does_not_take_the_place_of_the_clear_ones_around_it():
-    from autorig.discretize.medial import TURN_BAND, clearness
-    # A crossing whose edge turns by just the threshold counts for nothing, one turned TURN_BAND past it fully,
-    # and in between it rises continuously.
-    cos = np.cos(np.radians([70.0, 70.0 + TURN_BAND / 2, 70.0 + TURN_BAND, 120.0]))
-    clear = clearness(cos, 70.0)
-    assert clear[0] == 0.0 and 0.0 < clear[1] < 1.0 and clear[2] == 1.0 and clear[3] == 1.0
-    assert np.all(np.diff(clearness(np.cos(np.radians(np.linspace(70.0, 70.0 + TURN_BAND, 50))), 70.0)) > 0)
-    # A marginal sample a little larger than its clear neighbour: the neighbour is kept and covers it, as it
-    # does when the marginal sample is not there at all.
-    points = [[0.0, 0.012, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]
-    radii = [0.2071, 0.2054, 0.01, 0.01]
-    with_marginal = _kept(points, radii, clearness(np.cos(np.radians([70.01, 90.0, 90.0, 90.0])), 70.0))
-    without = _kept(points[1:], radii[1:])
-    assert np.array_equal(with_marginal, without)
