@@ -73,8 +73,12 @@ def test_axes_given_give_the_rig_the_same_axes_detected_give(animal, name, turn,
     given = autorig.rig((turn(animal.vertices), animal.faces), "quadruped",
                         autorig.RigOptions(up=axes[0], front=axes[1]))
     assert (detected.info["up"], detected.info["front"]) == axes
-    assert np.array_equal(given.joints, detected.joints)
-    assert np.array_equal(given.weights, detected.weights)
+    # The same rig to within rounding: the packing bins each sample's distance from the middle (mirror twins
+    # tie, ``pack_spheres``), and a sample whose distance sits on a bin's edge may fall either side of it in
+    # the two frames' floats (a dog's joints 4e-8 of its height apart).
+    height = float(np.ptp(given.joints[:, 1]))
+    assert np.abs(given.joints - detected.joints).max() < 1e-6 * height
+    assert np.abs(given.weights - detected.weights).max() < 1e-4
 
 
 def axis_vector(spec: str) -> np.ndarray:
