@@ -11,8 +11,14 @@ extra      limbs of the shape that the template left empty (an octopus rigged as
            stand out at least 60% as much as the rigged limbs (median), counted against the template's
            own number of limb ends: 1 / (1 + unused / limb ends)
 inside     joints outside the mesh: the fraction of non-tip joints inside
-symmetry   mirrored joints that are not mirror images: 1 / (1 + (mean mismatch / 10% of height)^2)
+symmetry   mirrored joints that are not mirror images where the mesh is (each pair's mismatch weighted by
+           ``refine.pair_symmetry``): 1 / (1 + (mean mismatch / 10% of height)^2)
 search     0.8 when the A* search ran out of budget and took its greedy embedding
+feet       the mesh's toes behind its shins (``toes_forward``), as under a rig made facing backwards:
+           1 / (1 + (how far behind / FEET_BEHIND_SCALE)^2); 1 for a template without feet
+sides      a mirror pair near the trunk (shoulders and elbows, hips and knees: ``SIDE_DEPTH``) each on the
+           other's side, as when an arm's chain crossed to the other arm: 0.5 for each such pair. Hands and
+           feet may cross (arms folded, legs crossed); elbows and knees do not
 =========  =========================================================================================
 
 Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
@@ -27,7 +33,7 @@ template, whether its head and tail chains reach the mesh's front and back (``en
 output is the probability that the rig is right (worst joint within ``GOOD_ERROR`` of the height) rather than
 wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wrong" and 0.5 or above "probably
 right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
-never lower it. The model's probability is then multiplied by the fit, limbs, extra and search parts
+never lower it. The model's probability is then multiplied by the fit, limbs, extra, search, feet and sides parts
 (``beyond_calibration``): the failures those stand for are ones no calibration rig shows, so the model cannot
 have learned them. ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
@@ -69,6 +75,15 @@ FIT_SCALE = 0.5          # embedding penalty per reduced bone at which the fit p
 FOOT_BAND = 0.04
 SHIN_BAND = (0.10, 0.25)
 FOOT_REACH = 0.15
+# ``sides``: the mirror pairs this many bones or fewer from the mid-plane's joints (1: shoulders, hips; 2: elbows,
+# knees), and how far (heights) past each other across the mid-plane two of them must be to count as crossed.
+SIDE_DEPTH = 2
+SIDE_MARGIN = 0.02
+# ``feet``: how far behind its shins (heights) the mesh's feet lie for the part to be 1/2. No right rig of the
+# shared and corpus bipeds, in their rest poses or re-posed (benchmarks/poses.py), has its mesh's feet behind
+# its shins at all (0.000 each); the mannequins rigged facing backwards, 0.037-0.047. The calibrated model
+# weighs it too, but on too few backwards rigs: an A-posed mannequin rigged facing backwards scored 0.64.
+FEET_BEHIND_SCALE = 0.02
 
 
 def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embedding, template: Template,
@@ -92,7 +107,10 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     if template.symmetry:
         left = np.array([i for i, _ in template.symmetry])
         right = np.array([j for _, j in template.symmetry])
-        mismatch = float(np.mean(np.linalg.norm(joints[left] * [-1, 1, 1] - joints[right], axis=1)))
+        # Counted where the mesh is its own mirror image (``refine.pair_symmetry``): a stride's legs are not.
+        from .embed.refine import pair_symmetry
+        weight = pair_symmetry(field, joints, left, right)
+        mismatch = float(np.mean(weight * np.linalg.norm(joints[left] * [-1, 1, 1] - joints[right], axis=1)))
     else:
         mismatch = 0.0
     parts = {
@@ -102,6 +120,9 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         "inside": inside,
         "symmetry": 1.0 / (1.0 + (mismatch / 0.1) ** 2),
         "search": 1.0 if embedding.optimal else 0.8,
+        "sides": 0.5 ** len(crossed_pairs(joints, template)),
+        "feet": 1.0 / (1.0 + (max(-toes_forward(field.surface_vertices, joints, template), 0.0)
+                              / FEET_BEHIND_SCALE) ** 2),
     }
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
@@ -120,7 +141,27 @@ def beyond_calibration(parts: dict, free_per_bone: float) -> float:
     limbless torso embedded with a cost per bone ten times theirs and limb ends on bumps scored 0.52 without
     this). The fit is taken without the direction term, like the model's cost (a T pose is no failure). On the
     corpus's cross-validated biped rigs it moves no confidence by more than 0.01."""
-    return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"])
+    return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"]
+                 * parts.get("sides", 1.0) * parts.get("feet", 1.0))
+
+
+def crossed_pairs(joints: np.ndarray, template: Template) -> list[tuple[int, int]]:
+    """The template's mirror pairs within ``SIDE_DEPTH`` bones of the mid-plane's joints lie each on
+    the other's side of the body in ``joints`` [J, 3] (canonical frame: x = 0 the mid-plane) by more than
+    ``SIDE_MARGIN``: an arm's chain that crossed to the other arm (a rig of a character with its arms folded
+    in front of it, its elbows swapped). Hands and feet are not counted: they may cross in a right rig."""
+    mirror = template.mirror_of()
+    crossed = []
+    for i, j in template.symmetry:
+        depth, k = 0, int(i)
+        while k >= 0 and mirror[k] != k:
+            k, depth = int(template.parents[k]), depth + 1
+        if k < 0 or depth > SIDE_DEPTH:
+            continue
+        side = np.sign(template.positions[i, 0] - template.positions[j, 0])
+        if side * (joints[i, 0] - joints[j, 0]) < -SIDE_MARGIN:
+            crossed.append((int(i), int(j)))
+    return crossed
 
 
 def _fit_part(per_bone: float) -> float:

@@ -3,7 +3,7 @@
 The confidence (``autorig.confidence``) is read, never changed. With a calibrated model (a learned template's
 ``ConfidenceModel``), each feature moves the model's log-odds by ``coef * (x - mean) / scale``; the ones that
 move it down most (below the calibration rigs' average) are the reasons, together with the factors the model's
-probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search), each counted by how much it
+probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet), each counted by how much it
 moves the log-odds of the final number. Without a model the confidence is a product of parts, and each part
 ``p < 1`` pulls it down by ``log p``. Each reason names the joints it is about where the rig says which
 ("left knee / right knee: not mirror images, 9 % of the height apart").
@@ -51,6 +51,8 @@ def confidence_reasons(field, graph, embedding, template, joints: np.ndarray, pa
         pulls["cost_per_bone"] = pulls.pop("cost_per_bone") + _factor_pull(confidence, _fit_part(free))
         for name in ("limbs", "extra", "search"):
             pulls[name] += _factor_pull(confidence, parts[name])
+        pulls["sides"] = _factor_pull(confidence, parts.get("sides", 1.0))
+        pulls["feet_behind"] += _factor_pull(confidence, parts.get("feet", 1.0))
         pulls["_values"] = values     # not a pull: what the words quote
     values = pulls.pop("_values", {})
     ranked = sorted((pull, name) for name, pull in pulls.items() if pull < -LEAST_PULL)
@@ -95,11 +97,16 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         return "the shape: has limbs the template left without bones"
     if name == "search":
         return "embedding: the search ran out of time and took a greedy guess"
+    if name == "sides":
+        from .confidence import crossed_pairs
+        pairs = crossed_pairs(joints, template)
+        named = " and ".join(f"{_said(template.names[i])} / {_said(template.names[j])}" for i, j in pairs[:2])
+        return f"{named or 'left and right'}: each on the other's side of the body (a limb's chain crossed over)"
     if name == "cost_per_bone":
         return "bones: far from the template's lengths and directions"
     if name == "facing":
         return "feet: pointing backwards (left and right swapped?)"
-    if name == "feet_behind":
+    if name in ("feet_behind", "feet"):
         return "feet: the mesh's toes lie behind its shins (rigged facing backwards?)"
     if name == "ends_short":
         return _ends_words(template, joints, field.surface_vertices)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import autorig
-from autorig.embed.convention import joint_frames, local_offsets, moved
+from autorig.embed.convention import REFERENCE_BAND, REFERENCE_SWITCH, joint_frames, local_offsets, moved
 from autorig.errors import TemplateError
 from autorig.learn.conventions import convention_for_source, default_convention, fit_conventions, named_sources, source_of
 from autorig.learn.examples import Example
@@ -61,6 +61,48 @@ def test_frames_follow_the_bone_and_scale_with_the_limb(biped):
     assert scales[knee, 0] == pytest.approx(np.linalg.norm(along))
     assert scales[hip, 1] == pytest.approx(0.08)
     assert np.allclose(axes[hip] @ axes[hip].T, np.eye(3), atol=1e-9)    # orthonormal
+
+
+def _foot_turned(biped, along_front: float, rise: float = 1.0) -> np.ndarray:
+    """The biped's joints with its left ankle-to-toe bone turned about x through the ankle (its length kept)
+    so that the bone's direction has ``along_front`` for a . front, rising (``rise`` 1) or falling (-1)."""
+    joints = biped.positions.copy()
+    ankle, toe = (biped.names.index(n) for n in ("left_ankle", "left_toe"))
+    length = np.linalg.norm(joints[toe] - joints[ankle])
+    z = along_front
+    joints[toe] = joints[ankle] + length * np.array([0.0, rise * np.sqrt(1 - z * z), z])
+    return joints
+
+
+def test_a_bone_turning_through_the_reference_switch_moves_its_joint_continuously(biped):
+    # The ankle's frame takes its second axis from the front below |a . front| = 0.9 and from the up above:
+    # for a bone rising forward in the mid-plane's direction the two are opposite, so the hard switch moved
+    # the joint by twice its offset along b for a bone turned by a rounding error (a MakeHuman body's toe
+    # 1.3 % of its height under 1e-6 noise).
+    ankle = biped.names.index("left_ankle")
+    offsets = np.zeros((len(biped.names), 3))
+    offsets[ankle] = (0.1, 0.3, 0.2)
+    depth = _depths(biped)
+    for rise in (1.0, -1.0):
+        below, above = (moved(j, offsets, biped, depth)[ankle] - j[ankle]
+                        for j in (_foot_turned(biped, REFERENCE_SWITCH - 1e-7, rise),
+                                  _foot_turned(biped, REFERENCE_SWITCH + 1e-7, rise)))
+        assert np.linalg.norm(above - below) < 1e-6
+        # ... while the move itself is the offset's size (thickness 0.04): nothing was switched off.
+        assert np.linalg.norm(below) > 0.005
+    # Far from the band each frame is the one it always was: b the front (or the up) made square to the bone.
+    for z, reference in ((REFERENCE_SWITCH - 2 * REFERENCE_BAND, [0, 0, 1.0]), (0.5, [0, 0, 1.0]),
+                         (REFERENCE_SWITCH + 2 * REFERENCE_BAND, [0, 1.0, 0]), (0.99, [0, 1.0, 0])):
+        joints = _foot_turned(biped, z)
+        axes, _ = joint_frames(joints, biped, depth)
+        a = axes[ankle, 0]
+        b = np.asarray(reference) - (np.asarray(reference) @ a) * a
+        assert np.array_equal(axes[ankle, 1], b / np.linalg.norm(b))
+        assert np.allclose(axes[ankle] @ axes[ankle].T, np.eye(3), atol=1e-12)
+    # Inside the band, the offsets a move measures are still the ones that made it.
+    joints = _foot_turned(biped, REFERENCE_SWITCH - REFERENCE_BAND / 2)
+    target = moved(joints, offsets, biped, depth)
+    assert np.allclose(local_offsets(joints, target, biped, depth), offsets, atol=1e-9)
 
 
 def test_a_convention_is_its_sources_median_shrunk_toward_the_others(biped):

@@ -70,6 +70,13 @@ class SurfaceQuery:
             return np.zeros((0, 3))
         return self._squared_distance(points)[1]
 
+    def nearest_faces(self, points: np.ndarray) -> np.ndarray:
+        """[N] the index of the triangle nearest each point [N, 3]."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) == 0:
+            return np.zeros(0, dtype=np.int64)
+        return np.asarray(self._tree.squared_distance(self.vertices, self.faces, points)[1], dtype=np.int64)
+
     def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
                 known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point.

@@ -3,6 +3,18 @@
 Two packed spheres are joined when they overlap and the straight segment between their centres stays inside
 the mesh, so graph paths are paths through the body's interior. Shortest-path lengths between all pairs of
 spheres are what the embedding measures bones with.
+
+Where two parts of the body touch (hands meeting in front of the chest, an arm resting on a thigh), the inside
+runs from one into the other, and so would the graph: two hands that meet became one limb end, and the second
+hand's chain went to the top of the head (posed corpus bipeds with their arms bent: wrists 15-20 % of the
+height off). A contact shows in the mesh itself: the segment between the two spheres passes close to the
+surface (its least depth under ``PINCH`` of the smaller radius, where a limb's own segments stay about a
+radius deep), and the surface points nearest the two spheres, on one connected piece of the mesh, are far
+apart over the surface (more than ``CONTACT_RATIO`` times the spheres' span, the centres' distance plus both
+radii) though near in space. Such edges are cut (``_contacts``). The surface distance is measured along the
+mesh's edges (Dijkstra, bounded at the span's multiple): a limb's own pinch (a wrist, a thin waist) keeps its
+edges, since around it the surface is as short as through it. Parts on separate pieces of the mesh (a sword in
+a hand, a separate head) are never cut apart: the surface cannot tell those.
 """
 from __future__ import annotations
 
@@ -13,6 +25,9 @@ import numpy as np
 from .distance import DistanceField
 from .medial import Spheres
 TIE = 1e-9   # gaps this close (of the largest radius) are equal: ``_bridge_pieces`` bridges them all
+PINCH = 0.5          # a segment whose least depth is under this fraction of the smaller radius may cross a contact
+CONTACT_RATIO = 3.0  # surface distance over the spheres' span beyond which a pinched edge is a contact
+CONTACT_SPAN = 0.12  # heights: spans above this are not checked (bounds the Dijkstra; limbs touch at smaller ones)
 
 
 
@@ -147,6 +162,7 @@ def sphere_graph(field: DistanceField, spheres: Spheres) -> SphereGraph:
     gap = np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1)
     pairs = pairs[gap < r[pairs[:, 0]] + r[pairs[:, 1]]]
     pairs = pairs[segments_inside(field, c[pairs[:, 0]], c[pairs[:, 1]])]
+    pairs = pairs[~_contacts(field, c, r, pairs)]
     pairs = _bridge_pieces(field, c, r, pairs)
 
     def adjacency(edges, size):
@@ -165,6 +181,52 @@ def sphere_graph(field: DistanceField, spheres: Spheres) -> SphereGraph:
     distances, predecessors = shortest_path(matrix, directed=False, return_predecessors=True)
     return SphereGraph(centers=c_kept, radii=r[keep], edges=edges, lengths=lengths,
                        distances=distances, predecessors=predecessors)
+
+
+def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndarray,
+              samples: int = 9) -> np.ndarray:
+    """[E] bool: which edges ``pairs`` [E, 2] of spheres (centres ``c``, radii ``r``, in the field's frame, one
+    unit a height) join two parts of the body that only touch (the module's docstring)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components, dijkstra
+
+    out = np.zeros(len(pairs), dtype=bool)
+    if not len(pairs):
+        return out
+    i, j = pairs[:, 0], pairs[:, 1]
+    t = np.linspace(0.0, 1.0, samples)[None, :, None]
+    points = c[i][:, None, :] * (1 - t) + c[j][:, None, :] * t
+    least = field.depth(points.reshape(-1, 3)).reshape(len(pairs), samples).min(axis=1)
+    span = np.linalg.norm(c[i] - c[j], axis=1) + r[i] + r[j]
+    check = np.flatnonzero((least < PINCH * np.minimum(r[i], r[j])) & (span <= CONTACT_SPAN))
+    if not len(check):
+        return out
+    surface = field.surface
+    vertices, faces = surface.vertices, surface.faces
+    edges = np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    key = np.unique(edges[:, 0] * np.int64(len(vertices)) + edges[:, 1])     # each edge once
+    edges = np.c_[key // len(vertices), key % len(vertices)]
+    weights = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    mesh = coo_matrix((weights, (edges[:, 0], edges[:, 1])), shape=(len(vertices),) * 2).tocsr()
+    _, piece = connected_components(mesh, directed=False)
+    # each sphere's nearest surface point, and of its triangle the corner nearest it
+    spheres = np.unique(pairs[check])
+    near = surface.nearest(c[spheres])
+    corner = faces[surface.nearest_faces(near)]
+    gaps = np.linalg.norm(vertices[corner] - near[:, None, :], axis=2)
+    vertex = np.full(len(c), -1, dtype=np.int64)
+    vertex[spheres] = corner[np.arange(len(spheres)), np.argmin(gaps, axis=1)]
+    a, b = vertex[i[check]], vertex[j[check]]
+    on_one = (piece[a] == piece[b]) & (a != b)
+    check, a, b = check[on_one], a[on_one], b[on_one]
+    if not len(check):
+        return out
+    limit = CONTACT_RATIO * span[check]
+    sources = np.unique(a)
+    reach = dijkstra(mesh, directed=False, indices=sources, limit=float(limit.max()))
+    far = reach[np.searchsorted(sources, a), b] > limit
+    out[check[far]] = True
+    return out
 
 
 def _bridge_pieces(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndarray) -> np.ndarray:

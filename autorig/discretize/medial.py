@@ -128,10 +128,14 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
     # visited first decides which are kept, and through what each covers, the whole packing: by coordinates,
     # a rounding error's worth of noise reorders them (a 256-triangle figure's 141 of 535 spheres moved). By
     # distance from the middle of the samples' box the order is the same for the mesh turned or re-exported.
+    # That distance is binned like the radius: mirror twins tie on it, and compared to the last bit it was the
+    # noise's to decide which twin the packing took (a Spartan's hips 4.2 % of the height, a rabbit's and a
+    # fox's elbows); binned, the character's own frame decides.
     middle = (points.min(axis=0) + points.max(axis=0)) / 2
     inward = np.sort((points - middle) ** 2, axis=1).sum(axis=1)   # summed in an order the axes' cannot change
     own = points if rotation is None else points @ np.asarray(rotation, dtype=np.float64).T
-    order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], inward, -np.floor(radii / RADIUS_STEP)))
+    order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], np.floor(np.sqrt(inward) / RADIUS_STEP),
+                        -np.floor(radii / RADIUS_STEP)))
     points, radii = points[order], radii[order]
     tree = cKDTree(points)
     covered = np.zeros(len(points), dtype=bool)

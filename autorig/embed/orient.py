@@ -53,7 +53,7 @@ SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried a
 CONVENTION_BONUS = 0.05   # penalty per axis a frame off +y up / +z front must beat the convention by
 DETECTION_EXPANSIONS = 200  # A* budget per fully searched frame (its greedy embedding is used beyond it)
 FULL_SEARCHES = 3            # frames searched after the greedy ranking
-DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for the two best when they face opposite ways (below)
+DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for a frame that could still win (``settle``)
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
 CREST_BAND = 0.05  # the part of the shape's height at its top whose place along z is its crest's
 MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
@@ -257,7 +257,7 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     left_axes += [best_plane] if best_plane not in left_axes else []
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
     # Greedy embeddings rank the frames (an upside-down frame costs many times more); the best few are then
-    # searched on a short budget, and the two best of those longer when front and back hang on them (below).
+    # searched on a short budget, and those that could still win longer (``settle``).
     problems, cues = {}, {}
     for u, f in candidates:
         change = prepared.frame_change(u, f)
@@ -266,34 +266,42 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
         cues[(u, f)] = weighted_cues(template, moved, change.apply(prepared.work_vertices))
     prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
-    bounds, searched_long = {}, set()
+    bounds = {}
     for key in sorted(costs, key=lambda k: (costs[k] + prior[k], k))[:FULL_SEARCHES]:
         costs[key], bounds[key] = _embedding_cost(problems[key], DETECTION_EXPANSIONS)
-    # When the two best face opposite ways, front and back hang on small gaps (the cue's, a biped's embedding's),
-    # and a greedy embedding can cost many times the optimum (a deer facing the right way, 11.9 against 1.9):
-    # they are compared on longer searches. Not when the runner-up cannot beat the leader whatever its search
-    # finds (its A* bound says so), nor between frames that disagree on up or on the front axis (their gaps
-    # are large, and a shape the template does not fit would run out both searches for nothing).
-    # A template's ``head_gap`` bounds how much their embeddings' difference counts (``bounded_costs``).
     gap = template.head_gap
-    while len(bounds) > 1:
-        bounded = bounded_costs({k: costs[k] for k in bounds}, gap)
-        lower = bounded_costs({k: costs[k] for k in bounds}, gap, {k: bounds[k] for k in bounds})
-        leader, runner_up = sorted(bounds, key=lambda k: (bounded[k] + prior[k], k))[:2]
-        if (runner_up != (leader[0], _flipped(leader[1]))
-                or lower[runner_up] + prior[runner_up] >= bounded[leader] + prior[leader]):
-            break
-        todo = [k for k in (leader, runner_up) if bounds[k] < costs[k] and k not in searched_long]
-        if not todo:
-            break
-        for key in todo:
-            costs[key], bounds[key] = _embedding_cost(problems[key], DECISION_EXPANSIONS)
-            searched_long.add(key)
+    costs = settle(costs, bounds, prior, gap, lambda key: _embedding_cost(problems[key], DECISION_EXPANSIONS))
     costs = {f"{u}/{f}": cost + prior[(u, f)] for (u, f), cost in bounded_costs(costs, gap).items()}
     ranked = sorted(costs, key=lambda k: (costs[k], k))
     margin = costs[ranked[1]] - costs[ranked[0]] if len(ranked) > 1 else 0.0
     u, f = ranked[0].split("/")
     return Orientation(u, f, costs, float(margin), [float(v) for v in symmetry])
+
+
+def settle(costs: dict, bounds: dict, prior: dict, gap: float | None, search_long) -> dict:
+    """{frame: embedding cost} once no frame's A* bound says it could still beat the leader: the frames of
+    ``bounds`` ({frame: lower bound} of those searched so far; ``costs`` {frame: best embedding's cost found},
+    ``prior`` {frame: handicap and cues}) are searched longer (``search_long(frame)`` -> (cost, bound)), the
+    leader first, then the rival with the lowest bound, each at most once: branch and bound over the frames.
+
+    A short search can leave the right frame's embedding many times its optimum (a deer facing the right way,
+    11.9 against 1.9; a stag with antlers standing up, 8.5 against 2.5, lost to a frame lying along its back
+    at 8.2 whose optimum is 10.0). A frame whose search finished (bound = cost) is never searched again. A
+    template's ``head_gap`` bounds how much two opposite frames' embeddings differ (``bounded_costs``)."""
+    costs, bounds, searched_long = dict(costs), dict(bounds), set()
+    while len(bounds) > 1:
+        bounded = bounded_costs({k: costs[k] for k in bounds}, gap)
+        lower = bounded_costs({k: costs[k] for k in bounds}, gap, {k: bounds[k] for k in bounds})
+        leader = min(bounds, key=lambda k: (bounded[k] + prior[k], k))
+        best = bounded[leader] + prior[leader]
+        rivals = sorted((k for k in bounds if k != leader and lower[k] + prior[k] < best),
+                        key=lambda k: (lower[k] + prior[k], k))
+        todo = [k for k in [leader] + rivals if bounds[k] < costs[k] and k not in searched_long]
+        if not rivals or not todo:
+            break
+        costs[todo[0]], bounds[todo[0]] = search_long(todo[0])
+        searched_long.add(todo[0])
+    return costs
 
 
 def cue_penalty(cues: dict, frame: tuple[str, str]) -> float:

@@ -15,7 +15,9 @@ inside         4.0     every bone's segment inside the mesh
 length         1.0     bone lengths as placed on the paths (squared relative change)
 direction      1.0     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
                        on the spine)
-symmetry       0.5     mirrored joints mirror images of each other about the body's mid-plane
+symmetry       0.5     mirrored joints mirror images of each other about the body's mid-plane, each pair as
+                       much as the mesh about it is its own mirror image (``pair_symmetry``: a stride's
+                       legs, a raised arm are not mirrored; a symmetric body's near-ties are)
 anchor         0.2     joints stay near where the embedding put them (squared, per 5% of the height)
 =============  ======  ==================================================================================
 """
@@ -32,6 +34,15 @@ TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry
 ANCHOR_UNIT = 0.05
 BONE_SAMPLES = np.linspace(0.0, 1.0, 6)[1:-1]
 SMOOTH_ROUNDS = 3   # rounds of smoothing of an embedded path before joints are placed along it
+# A mirror pair's symmetry weight: the mesh within SYMMETRY_REACH (heights) of either of its joints is mirrored
+# across the mid-plane, and its mean distance to the surface (heights) weighs the pair by
+# 1 / (1 + (distance / SYMMETRY_SCALE)^2). A body in its symmetric rest pose is its own mirror image to well
+# under a percent of its height; a leg 25 degrees forward in a stride lies some 10 % from where its mirror
+# image's is, and the term had pulled both legs of a stride two thirds of the way to each other's mirror image
+# (posed corpus bipeds, benchmarks/poses.py: ankles 11 % of the height off).
+SYMMETRY_REACH = 0.08
+SYMMETRY_SCALE = 0.02
+SYMMETRY_SAMPLES = 2000
 
 
 def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface) -> np.ndarray:
@@ -83,6 +94,33 @@ def _point_at(polyline: np.ndarray, arc: np.ndarray, s: float) -> np.ndarray:
     return polyline[i] + np.clip(t, 0.0, 1.0) * (polyline[i + 1] - polyline[i])
 
 
+def pair_symmetry(field, joints: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """[P] in (0, 1]: how nearly the mesh about each mirror pair of ``joints`` [J, 3] (``left`` [P], ``right``
+    [P] indices; canonical frame, mid-plane x = 0, one unit tall) is its own mirror image: the surface points
+    (``spread`` samples of the mesh's vertices) within ``SYMMETRY_REACH`` of either joint, mirrored across
+    x = 0, their mean distance to the surface d (each weighted by a bump falling smoothly to 0 at the reach), and 1 / (1 + (d / SYMMETRY_SCALE)^2); 1 for a pair with no
+    surface point that near."""
+    from ..input.mesh import spread
+    out = np.ones(len(left))
+    vertices = np.asarray(field.surface_vertices, dtype=np.float64)
+    if not len(left) or not len(vertices):
+        return out
+    points = vertices[spread(vertices, SYMMETRY_SAMPLES)]
+    # Each point counts by a smooth bump of its distance to the nearer joint of the pair, (1 - (d / reach)^2)^2,
+    # not all or nothing at the reach: a joint that moves a little then moves the weight a little (a hard edge
+    # moved a 0 A.D. Boudicca's wrist 0.7 % of the height under 1e-6 noise).
+    near = np.minimum(np.linalg.norm(points[None] - joints[left][:, None], axis=2),
+                      np.linalg.norm(points[None] - joints[right][:, None], axis=2)) / SYMMETRY_REACH
+    bump = np.clip(1.0 - near ** 2, 0.0, None) ** 2                  # [P, N]
+    used = np.flatnonzero(bump.max(axis=0) > 0)
+    if not len(used):
+        return out
+    distance = field.surface_distance(points[used] * [-1.0, 1.0, 1.0])
+    count = bump[:, used].sum(axis=1)
+    mean = (bump[:, used] @ distance) / np.maximum(count, 1e-12)
+    return np.where(count > 0, 1.0 / (1.0 + (mean / SYMMETRY_SCALE) ** 2), 1.0)
+
+
 def refine(field: DistanceField, initial: np.ndarray, template: Template, max_iterations: int = 200) -> np.ndarray:
     """[J, 3] joint positions after continuous optimisation, starting from ``initial`` [J, 3]."""
     from scipy.optimize import minimize
@@ -107,6 +145,8 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
     left = np.array([i for i, j in template.symmetry] + own, dtype=np.int64)
     right = np.array([j for i, j in template.symmetry] + own, dtype=np.int64)
     flip = np.array([-1.0, 1.0, 1.0])
+    pair_weight = np.concatenate([pair_symmetry(field, initial, left[:len(template.symmetry)],
+                                                right[:len(template.symmetry)]), np.ones(len(own))])
     scale = max(float(target_depth[solid].max()) if solid.any() else 0.0, 1e-3)
 
     def objective(flat: np.ndarray) -> tuple[float, np.ndarray]:
@@ -156,8 +196,8 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
         # symmetry: mirror pairs about the plane x = 0 (the body's mid-plane in the canonical frame)
         if len(left):
             diff = X[left] * flip - X[right]
-            total += TERMS["symmetry"] * np.sum(diff ** 2) / ANCHOR_UNIT ** 2
-            g = TERMS["symmetry"] * 2.0 * diff / ANCHOR_UNIT ** 2
+            total += TERMS["symmetry"] * np.sum(pair_weight[:, None] * diff ** 2) / ANCHOR_UNIT ** 2
+            g = TERMS["symmetry"] * 2.0 * pair_weight[:, None] * diff / ANCHOR_UNIT ** 2
             np.add.at(grad, left, g * flip)
             np.add.at(grad, right, -g)
 

@@ -11,7 +11,7 @@ each leg joint the example has:
 
 Returns {joint name: {"height": [FEATURES] (only for ``HEIGHT_FROM_LEGS``), "offset": [ox, oz]}}, with the
 tail base's rule read off the rump ({"tail_base": {"rump": [k, m]}}, ``autorig.readoff.rump.learn_rump``), the head's
-read off the snout ({"head": {"snout": [k, m]}}, ``autorig.readoff.head.learn_head``), and a
+read off the skull behind the snout ({"head": {"skull": [c, a, k, m]}}, ``autorig.readoff.head.learn_head``), and a
 report; joints fewer than ``MIN_EXAMPLES`` examples have, and the paws, are left to the placement.
 
 Which joints take what was chosen by cross-validation over the corpus's species groups (16 animals, 4 folds as
@@ -88,6 +88,6 @@ def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]
     from ..readoff.head import JOINT as HEAD, learn_head
     head, heads = learn_head(examples, per_example, template)
     if head is not None:
-        rules[HEAD] = {"snout": head}
+        rules[HEAD] = {"skull": head}
     return rules, {"legs_measured": measured, "rumps_measured": rumps, "heads_measured": heads, "legs_total": len(legs_of(template)) * len(examples),
                    "joints": {template.names[k]: len(v) for k, v in sorted(samples.items())}}

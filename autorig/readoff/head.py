@@ -1,26 +1,41 @@
-"""The head joint read off the mesh: a share of the way from the front paws to the snout, not the template's.
+"""The head joint read off the mesh: the skull's pivot, a skull's length behind the snout, not the template's.
 
-The embedding's head chain often stops short of the snout (a boar's, a pig's, a rhino's: 10-52 % of the height)
-or climbs a horn, and the placement pulls a raised head toward the template's; the head joint follows it. The
-snout itself is easy to find on the mesh, and the front paws are where the embedding finds them (about 4 % of the
-height off), so the head is measured between the two instead. In the canonical frame (+y up, one unit tall,
-facing +z), on the body's mid-plane (the x half-way between the front legs' feet), over a grid of ``STEP``:
+The embedding's head chain often stops short of the snout (a boar's, a pig's, a rhino's) or climbs a horn, and
+the placement pulls a raised head toward the template's; even a chain that reaches the snout leaves its head
+joint where the template's proportions put it (the aurochs's 14 % of the extent from its artist's). An artist's
+head joint is the head's pivot, where the skull meets the neck (or the body, without a neck), and a skull is
+about as long as a number of its own depths. In the canonical frame (+y up, one unit tall, facing +z), on the
+body's mid-plane (the x half-way between the front legs' feet), over a grid of ``STEP``:
 
-    paws     the front feet's mean z
-    tip      going forward from the paws, the last z whose mid-plane column is still inside the mesh (the
-             snout's end; a horn or a tusk off the mid-plane does not count)
-    column   at z = tip - k * (tip - paws): its deepest point's height and its depth (half-thickness)
+    paws       the front feet's mean z
+    tip        going forward from the paws, the last z whose mid-plane column is still inside the mesh (the
+               snout's end; a horn or a tusk off the mid-plane does not count)
+    thickness  the thickest mid-plane column (its top minus its bottom) within a share a of the way from the
+               snout back to the paws: the head's depth, a being the least share at which any example's artist
+               put the head, so that the window holds only head in every example
+    column     at z: its deepest point's height and its depth (half-thickness)
 
-and the joint goes to (x, deepest + m * depth, tip - k * (tip - paws)), k and m the medians over the examples
-(``learn_head``), unless the embedding's head chain ended within ``REACHED`` of the snout (blended between its
-two bounds): there its head was as near its artist's as the rule's or nearer (cow, giraffe, goat, wildebeest: 7-9 % against 12-17 %). The share k is the animal's own length of head and neck in one number: an absolute distance
-behind the snout (a head of one size for every animal) or one in trunk depths rigged the corpus's held-out
-species worse (14.9 and 9.8 % mean against 7.7 % with the artists' paws, see docs/tutorials/learn.md). The
-neck, when it no longer sits between the chest and the new head along the back, goes half-way between them.
-The template's ``legs`` carries the rule as ``{"head": {"snout": [k, m]}}``; a template without it, or a mesh
-whose snout or head column cannot be measured, keeps its joints.
+and the joint goes c thicknesses behind the snout, but at least a share k of the way back to the paws, at
+``deepest + m * depth`` of its column: (x, deepest + m * depth, tip - max(c * thickness, k * (tip - paws))).
+c and m are the medians over the examples, a their least share and k their lower quartile (``learn_head``).
+The share alone, the rule before, put every head at one share of the way (the artists' range 0.38-0.85 over the
+0 A.D., Quaternius and glTF animals), and a big-headed creature's pivot sits at its shoulders (OpenClonk's
+wipf, mooq and puka: 1.05-1.35), 16-25 % of the extent from where that share put it; the thickness alone put a
+long, low head (the rhino's) 16 % short. The floor k was chosen on the 31 animals among 0, 0.1, ..., 0.5 of
+the shares' quantiles (0.2-0.3 rig alike; 0 leaves the rhino at 16 %, 0.4-0.5 move the alpaca's raised head
+27 %), not cross-validated. The rule is taken whether or not the embedding's head chain reached the snout: the
+embedding's own head, kept where its chain reached the snout, was the worse on those animals (the aurochs 14
+against 9 %, the Quaternius bull, cow, deer and horse 10-11 against 9, 9, 6 and 5 %; see docs/tutorials/learn.md).
+The neck, when it no longer sits between the chest and the new head along the back, goes half-way between them.
+The template's ``legs`` carries the rule as ``{"head": {"skull": [c, a, k, m]}}``. The older ``{"head":
+{"snout": [k, m]}}`` (the head a share k of the way back from the snout, unless the head chain ended within
+``REACHED`` of it) is still read as it was. A template without either, or a mesh whose snout or head column
+cannot be measured, keeps its joints.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -28,19 +43,38 @@ STEP = 0.01
 JOINT = "head"
 NECK, CHEST = "neck", "chest"
 MIN_EXAMPLES = 4
-# How near the snout's end (in heights) the embedding's head chain must end for its head to be kept. On the
-# corpus the chains either reach the snout (0.3-2.3 % short along the back) or stop well short of it, in a
-# tusk or the neck (7.4-52 %), or climb a horn (the aurochs's, 9.9 % short and 23 % above the snout). Between
-# the two bounds the head is blended from the embedding's to the rule's, so that a chain's end moving across
-# one bound (a wolf's, 3.6 % under a re-export's rounding) moves the head as little as the end moved.
+# The older "snout" rule's bounds: how near the snout's end (in heights) the embedding's head chain had to end for
+# its head to be kept, blended between the two.
 REACHED = (0.03, 0.07)
+RULES = ("skull", "snout")    # the learned rule, and the one before it (a share of the way from snout to paws)
+FLOOR = 0.25                  # the quantile of the examples' shares that is the skull rule's floor k
 
 
-def measure_head(depth, vertices: np.ndarray, joints: np.ndarray, template) -> tuple | None:
-    """(x, paws, snout [3] (x, the tip column's deepest point, tip), column) from a signed ``depth`` (points [N, 3] -> [N], > 0 inside), the ``vertices``
-    [V, 3] and the front feet in ``joints`` [J, 3] (canonical frame), where ``column(z)`` gives (deepest point's
-    height, depth) of the mid-plane's column at z, or None when it is not inside; None without front legs or a
-    snout ahead of them."""
+@dataclass
+class Head:
+    """What ``measure_head`` reads off a mesh (canonical frame).
+
+    x          the mid-plane's x (half-way between the front feet)
+    paws       the front feet's mean z
+    snout      [3] (x, the tip column's deepest point, tip)
+    column     z -> (deepest point's height, depth) of the mid-plane's column at z, or None when not inside
+    thickness  share a -> the thickest mid-plane column (top minus bottom) within a * (tip - paws) of the tip
+    """
+    x: float
+    paws: float
+    snout: np.ndarray
+    column: Callable
+    thickness: Callable
+
+    @property
+    def tip(self) -> float:
+        return float(self.snout[2])
+
+
+def measure_head(depth, vertices: np.ndarray, joints: np.ndarray, template) -> Head | None:
+    """The ``Head`` of a mesh from its signed ``depth`` (points [N, 3] -> [N], > 0 inside), its ``vertices``
+    [V, 3] and the front feet in ``joints`` [J, 3] (canonical frame); None without front legs or a snout ahead
+    of them."""
     from .legs import legs_of
     from .rump import midplane_depths
     feet = np.array([joints[chain[-1]] for chain in legs_of(template)]).reshape(-1, 3)
@@ -57,38 +91,56 @@ def measure_head(depth, vertices: np.ndarray, joints: np.ndarray, template) -> t
     def grid(z: np.ndarray) -> np.ndarray:      # [len(z), len(Y)] depths of the mid-plane's columns at z
         return midplane_depths(depth, x, z, Y)
 
-    inside = np.nonzero(grid(Z).max(axis=1) > 0)[0]
+    columns = grid(Z) > 0                        # [Z, Y] inside
+    inside = np.nonzero(columns.any(axis=1))[0]
     if not len(inside) or Z[inside[-1]] - paws < 2 * STEP:
         return None
     tip = float(Z[inside[-1]])
+    rows = np.arange(len(Y))
+    tops = np.where(columns, rows, -1).max(axis=1)
+    bottoms = np.where(columns, rows, len(Y)).min(axis=1)
+    thick = np.where(tops >= 0, (tops - bottoms) * STEP, 0.0)     # [Z] each column's top minus its bottom
 
     def column(z: float):
         d = grid(np.array([z]))[0]
         return None if d.max() <= 0 else (float(Y[int(np.argmax(d))]), float(d.max()))
-    return x, paws, np.array([x, column(tip)[0], tip]), column
+
+    def thickness(share: float) -> float:
+        return float(thick[(Z >= tip - share * (tip - paws) - 1e-9) & (Z <= tip)].max(initial=0.0))
+    return Head(x, paws, np.array([x, column(tip)[0], tip]), column, thickness)
+
+
+def head_place(rule: list[float], key: str, head: Head) -> float:
+    """The z the ``key`` rule (``RULES``) puts the head at on the measured ``head``."""
+    span = head.tip - head.paws
+    if key == "snout":
+        return head.tip - rule[0] * span
+    return head.tip - max(rule[0] * head.thickness(rule[1]), rule[2] * span)
 
 
 def read_head(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.ndarray:
     """[J, 3] ``joints`` with the head moved by the template's learned rule (``measure_head``) and the neck
     kept between the chest and the head; unchanged without the rule or the measurement."""
     from .rump import ruled_measurement
-    found = ruled_measurement(joints, template, JOINT, "snout", measure_head, depth, vertices)
+    key = next((k for k in RULES if k in (template.legs or {}).get(JOINT, {})), None)
+    found = None if key is None else ruled_measurement(joints, template, JOINT, key, measure_head, depth, vertices)
     if found is None:
         return joints
-    rule, (x, paws, snout, column) = found
-    tip = float(snout[2])
+    rule, measured = found
     head = template.names.index(JOINT)
-    ends = [c for c in template.children[head] if not template.children[c]]
-    reach = min(float(np.linalg.norm(joints[c] - snout)) for c in ends) if ends else np.inf
-    keep = float(np.clip((REACHED[1] - reach) / (REACHED[1] - REACHED[0]), 0.0, 1.0))
-    if keep >= 1.0:
-        return joints    # the embedding's head chain reached the snout: its head is the mesh's own
-    z = tip - rule[0] * (tip - paws)
-    section = column(z)
+    keep = 0.0
+    if key == "snout":    # the older rule kept the head of a chain that reached the snout
+        ends = [c for c in template.children[head] if not template.children[c]]
+        reach = min(float(np.linalg.norm(joints[c] - measured.snout)) for c in ends) if ends else np.inf
+        keep = float(np.clip((REACHED[1] - reach) / (REACHED[1] - REACHED[0]), 0.0, 1.0))
+        if keep >= 1.0:
+            return joints
+    z = head_place(rule, key, measured)
+    section = measured.column(z)
     if section is None:
         return joints
     out = joints.copy()
-    out[head] = keep * joints[head] + (1.0 - keep) * np.array([x, section[0] + rule[1] * section[1], z])
+    out[head] = keep * joints[head] + (1.0 - keep) * np.array([measured.x, section[0] + rule[-1] * section[1], z])
     if NECK in template.names and CHEST in template.names:
         neck, chest = template.names.index(NECK), template.names.index(CHEST)
         # A head moved back past the neck would fold the neck chain over itself; half-way keeps it a chain.
@@ -98,20 +150,27 @@ def read_head(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.n
 
 
 def learn_head(examples, per_example: np.ndarray, template) -> tuple[list[float] | None, int]:
-    """([k, m] or None, how many examples measured): the medians over ``examples`` (``learn.examples.Example``,
-    their joints in the template frame ``per_example`` [N, J, 3]) that map the head, of how far back from the
-    snout toward the front paws (k, a share) and above the deepest point of that column (m, in its depths)
-    their artists put it. Medians, so that one species' odd head (a giraffe's on its long neck) does not move
-    every animal's."""
+    """([c, a, k, m] or None, how many examples measured) over ``examples`` (``learn.examples.Example``, their
+    joints in the template frame ``per_example`` [N, J, 3]) that map the head: a, the least share of the way
+    back from the snout to the front paws at which their artists put it (the window its thickness is read in);
+    c, the median of its distance behind the snout in those thicknesses; k, the ``FLOOR`` quantile of those
+    shares; m, the median of its height above the deepest point of its column, in that column's depths.
+    Medians, so that one species' odd head (a giraffe's on its long neck) does not move every animal's."""
     from .rump import measured_examples
     if JOINT not in template.names:
         return None, 0
     j = template.names.index(JOINT)
     rows = []
-    for truth, (_, paws, (_, _, tip), column) in measured_examples(examples, per_example, template, JOINT, measure_head):
-        section = column(float(truth[j, 2]))
+    for truth, head in measured_examples(examples, per_example, template, JOINT, measure_head):
+        section = head.column(float(truth[j, 2]))
         if section is not None:
-            rows.append(((tip - truth[j, 2]) / (tip - paws), (truth[j, 1] - section[0]) / section[1]))
+            behind = head.tip - float(truth[j, 2])
+            rows.append((head, behind, behind / (head.tip - head.paws), (truth[j, 1] - section[0]) / section[1]))
     if len(rows) < MIN_EXAMPLES:
         return None, len(rows)
-    return [round(float(v), 4) for v in np.median(np.array(rows), axis=0)], len(rows)
+    share = round(float(min(r[2] for r in rows)), 4)
+    skulls = [behind / head.thickness(share) for head, behind, _, _ in rows if head.thickness(share) > 0]
+    if len(skulls) < MIN_EXAMPLES:
+        return None, len(rows)
+    floor = float(np.quantile([r[2] for r in rows], FLOOR))
+    return [round(float(v), 4) for v in (np.median(skulls), share, floor, np.median([r[3] for r in rows]))], len(rows)

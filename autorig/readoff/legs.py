@@ -43,8 +43,9 @@ BEND_FROM = 0.15
 # the body's line, so the confidence of a template with legs is calibrated on the other joints.
 CONVENTION_JOINTS = ("hips", "spine", "chest", "neck")
 FEATURES = 3
-# The keys of the rules for joints read off the trunk rather than a leg: the rump's (tail base), the snout's (head).
-READ_OFF = {"rump", "snout"}
+# The keys of the rules for joints read off the trunk rather than a leg, with their lengths: the rump's (tail
+# base), the skull's (head) and the snout's (the head's rule before the skull's, still read).
+READ_OFF = {"rump": 2, "skull": 4, "snout": 2}
 # Where ``top`` looks: vertical lines through the top ring's centre offset by these fractions of its widths.
 TOP_RAYS = np.array([(dx, dz) for dx in (-0.25, 0.0, 0.25) for dz in (-0.25, 0.0, 0.25)])
 
@@ -292,13 +293,13 @@ def parse_legs(value, names, bad) -> dict | None:
                 and all(isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) < 100 for x in v))
     def rule(r):    # a leg joint's, the tail base's read off the rump (``readoff.rump``) or the head's (``.head``)
         return isinstance(r, dict) and (
-            (len(r) == 1 and set(r) <= READ_OFF and numbers(next(iter(r.values()))))
-            or (not set(r) & READ_OFF and ("height" not in r or numbers(r["height"], FEATURES))
+            (len(r) == 1 and set(r) <= set(READ_OFF) and numbers(next(iter(r.values())), READ_OFF[next(iter(r))]))
+            or (not set(r) & set(READ_OFF) and ("height" not in r or numbers(r["height"], FEATURES))
                 and numbers(r.get("offset"))))
     if not isinstance(value, dict) or not all(k in names and rule(r) for k, r in value.items()):
         raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "offset": [x, z]}} '
-                  'or {"rump": [k, m]} or {"snout": [k, m]}')
-    return {k: {key: [float(x) for x in r[key]] for key in r} if set(r) & READ_OFF else
+                  'or {"rump": [k, m]} or {"skull": [c, a, k, m]} or {"snout": [k, m]}')
+    return {k: {key: [float(x) for x in r[key]] for key in r} if set(r) & set(READ_OFF) else
             {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
              "offset": [float(x) for x in r["offset"]]} for k, r in value.items()} or None
 
