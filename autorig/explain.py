@@ -6,7 +6,7 @@ move it down most (below the calibration rigs' average) are the reasons, togethe
 probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet), each counted by how much it
 moves the log-odds of the final number. Without a model the confidence is a product of parts, and each part
 ``p < 1`` pulls it down by ``log p``. Each reason names the joints it is about where the rig says which
-("left knee / right knee: not mirror images, 9 % of the height apart").
+("left knee / right knee: not mirror images where the mesh is (9% of the height apart)").
 
 Under ``DOUBTFUL`` a rig is "probably wrong": the summary line, ``--strict``, the batch's reports and its
 review page say so and name these reasons.
@@ -80,10 +80,15 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         shown = ", ".join(map(_said, outside[:3])) + (" ..." if len(outside) > 3 else "")
         return f"{shown or 'joints'}: outside the mesh"
     if name == "symmetry" and template.symmetry:
-        gaps = [float(np.linalg.norm(joints[i] * [-1, 1, 1] - joints[j])) for i, j in template.symmetry]
-        i, j = template.symmetry[int(np.argmax(gaps))]
-        return f"{_said(template.names[i])} / {_said(template.names[j])}: not mirror images ({max(gaps):.0%} " \
-               f"of the height apart)"
+        # The pair the part counts most against: its gap weighted, as the part weighs it, by how much the mesh
+        # around the pair is its own mirror image (``refine.pair_symmetry``; a stride's legs are not).
+        from .embed.refine import pair_symmetry
+        left = np.array([i for i, _ in template.symmetry])
+        right = np.array([j for _, j in template.symmetry])
+        gaps = np.linalg.norm(joints[left] * [-1, 1, 1] - joints[right], axis=1)
+        k = int(np.argmax(pair_symmetry(field, joints, left, right) * gaps))
+        return f"{_said(template.names[left[k]])} / {_said(template.names[right[k]])}: not mirror images " \
+               f"where the mesh is ({gaps[k]:.0%} of the height apart)"
     if name == "proportions":
         return _proportions_words(template, joints)
     if name == "limbs":

@@ -164,3 +164,26 @@ def test_elbows_on_each_others_side_make_a_rig_doubtful_and_say_so():
     assert beyond_calibration({**parts, "sides": 0.5 ** len(crossed_pairs(elbows, template))}, 0.1) < 0.5
     words = _words("sides", None, None, None, template, elbows, parts, {})
     assert "left elbow / right elbow" in words and "other's side" in words
+
+
+def test_the_symmetry_reason_names_the_pair_that_is_off_where_the_mesh_is_symmetric():
+    """The symmetry part weighs each pair's mismatch by how much the mesh about it is its own mirror image; its
+    reason in words names the pair it counts most against. In a stride the ankles are far from mirror images,
+    rightly: with an elbow moved out of its place, the elbows are named, not the ankles."""
+    from autorig.discretize.distance import distance_field
+    from autorig.explain import _words
+    from autorig.input.mesh import prepare
+    meta, vertices, weights = character()
+    posed, truth = pose_character(meta, vertices, weights, "stride")
+    prepared = prepare(posed, mannequin("down", resolution=40).faces, "y", "z")
+    field = distance_field(*prepared.coarse())
+    template = load_template("biped")
+    names = [j["name"] for j in meta["joints"]]
+    joints = prepared.to_canonical(np.array([truth[names.index(n)] for n in template.names]))
+    height = float(np.ptp(prepared.to_canonical(posed)[:, 1]))
+    ankles = [list(template.names).index(f"{s}_ankle") for s in ("left", "right")]
+    assert np.linalg.norm(joints[ankles[0]] * [-1, 1, 1] - joints[ankles[1]]) > 0.1 * height   # the stride
+    elbow = list(template.names).index("left_elbow")
+    joints[elbow] += [0.05 * height, 0.0, 0.0]
+    words = _words("symmetry", field, None, None, template, joints, {}, {})
+    assert words.startswith("left elbow / right elbow: not mirror images"), words
