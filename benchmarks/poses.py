@@ -23,7 +23,8 @@ learned from these characters, in their rest poses only), or with ``--folds K`` 
 given and in its source's own convention. Scored: for each wrist, ankle and the head, whether the rig's joint
 is nearer its own artist's joint than any other of those five and within 15 % of the height (structure right);
 and the anatomy joints (elbows, wrists, knees, ankles, head) mean and worst error, % of the height (the rest
-pose's height along up), with the confidence of the rigs whose structure is wrong. As a sanity check of each posed
+pose's height along up), with how many of the rigs whose structure is wrong score a confidence below 0.5 and
+how many of the right ones 0.5 or more (a pipeline trusts what scores 0.5 or more). As a sanity check of each posed
 mesh, ``spread`` (how far its vertices moved from the rest, mean, % of the height) is printed, and how far apart
 the artist's wrists are in it (% of the height: the nearer, the finer the structure test on them); ``--out`` keeps
 the posed characters (mesh.obj, joints.json, weights.npz) to look at with ``autorig preview``.
@@ -306,9 +307,11 @@ def _stats(head: str, mine: list[dict], ok: list[dict]) -> str:
         return f"{head} {len(mine)} rigs, all failed"
     errors = [v for r in ok for v in r["errors"].values()]
     low = [r["confidence"] for r in ok if not r["structure"] and isinstance(r.get("confidence"), (int, float))]
+    high = [r["confidence"] for r in ok if r["structure"] and isinstance(r.get("confidence"), (int, float))]
     return (f"{head} structure right {sum(r['structure'] for r in ok)}/{len(mine)}  anatomy mean "
             f"{np.mean(errors):4.1f} worst {max(errors):5.1f}  failed {len(mine) - len(ok)}"
-            f"  wrong ones with confidence < 0.5: {sum(c < 0.5 for c in low)}/{len(low)}")
+            f"  wrong ones with confidence < 0.5: {sum(c < 0.5 for c in low)}/{len(low)}"
+            f"  right ones with confidence >= 0.5: {sum(c >= 0.5 for c in high)}/{len(high)}")
 
 
 def main(argv=None) -> int:
