@@ -173,3 +173,35 @@ def test_a_big_headed_creatures_head_is_at_its_shoulders(template, name, limit):
     assert error < limit
     for paw in ("front_left_paw", "front_right_paw"):
         assert np.linalg.norm(read[head] - truth[head]) < np.linalg.norm(read[head] - truth[names.index(paw)])
+
+
+
+
+def test_a_raised_heads_column_that_is_a_necks_puts_the_head_at_the_snouts_height(template, monkeypatch):
+    """An alpaca's or a camel's head is carried high on an upright neck, whose mid-plane column behind the head
+    runs down into the chest and is deepest at the neck's base: the skull rule put the head there (the
+    Quaternius alpaca's, 2.3 head thicknesses below its snout and 27 % of its extent from its artist's head, with
+    the horse template). A column deepest more than ``NECK_COLUMN`` thicknesses from the snout's height is a
+    neck's, and the head goes at the snout's height; one within the first keeps the column's deepest point; in
+    between the two are blended, so that the head moves steadily as the deepest point does."""
+    from autorig.readoff import head as rule_module
+    names = template.names
+    c, a, k, m = template.legs["head"]["skull"]
+    snout_y, thickness, depth_at = 0.9, 0.12, 0.05
+    low, high = rule_module.NECK_COLUMN
+    heights = []
+    offs = np.linspace(0.0, 3.0, 61)
+    for off in offs:
+        deepest = snout_y - off * thickness
+        measured = rule_module.Head(x=0.0, paws=0.1, snout=np.array([0.0, snout_y, 0.4]),
+                                    column=lambda z, d=deepest: (d, depth_at), thickness=lambda share: thickness)
+        monkeypatch.setattr(rule_module, "measure_head", lambda *args, h=measured: h)
+        read = read_head(np.zeros((len(names), 3)), template, None, None)[names.index("head")]
+        assert read[2] == pytest.approx(0.4 - max(c * thickness, k * 0.3))
+        heights.append(read[1])
+        if off <= low:
+            assert read[1] == pytest.approx(deepest + m * depth_at)
+        if off >= high:
+            assert read[1] == pytest.approx(snout_y)
+    # No jump anywhere: each step of the deepest point (0.05 thicknesses) moves the head by at most a few of them.
+    assert np.max(np.abs(np.diff(heights))) < 4 * 0.05 * thickness
