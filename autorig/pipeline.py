@@ -260,9 +260,27 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
     stage = stage or _stage_timer({})
     with stage("embedding"):
         embedding = embed(graph, template, max_expansions, held)
+
+    def placed(embedding):
+        return along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
+                                     template), template)
     with stage("refinement"):
-        joints = along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
-                                       template), template)
+        joints = placed(embedding)
+    if held is None:
+        from .confidence import crossed_pairs
+        crossed = crossed_pairs(joints, template)
+        if crossed:
+            # Shoulders, elbows, hips and knees each on the other's side of the body: a limb's chain ran through
+            # the other limb (hands that meet in front of the chest leave which end is whose a near-tie). The
+            # ends given to each other are tried, and kept if fewer pairs cross (``crossed_pairs``).
+            from .embed import swap_mirrored
+            with stage("embedding"):
+                other = swap_mirrored(graph, template, embedding, [i for pair in crossed for i in pair])
+            if other is not embedding:
+                with stage("refinement"):
+                    moved = placed(other)
+                if len(crossed_pairs(moved, template)) < len(crossed):
+                    embedding, joints = other, moved
     return embedding, joints
 
 

@@ -187,3 +187,41 @@ def test_the_symmetry_reason_names_the_pair_that_is_off_where_the_mesh_is_symmet
     joints[elbow] += [0.05 * height, 0.0, 0.0]
     words = _words("symmetry", field, None, None, template, joints, {}, {})
     assert words.startswith("left elbow / right elbow: not mirror images"), words
+
+
+
+@pytest.mark.skipif(not VERCINGETORIX.exists(), reason="shared data (../shared/data) is not present")
+def test_arms_whose_chains_crossed_over_are_given_their_own_hands_back(tmp_path, monkeypatch):
+    """Hands that meet in front of the chest leave which hand end is whose a near-tie for the search: posed
+    MakeHuman bodies (arms bent, idle) had each arm's chain run from its shoulder through the other arm, an
+    elbow 23 % of the height off. Elbows each on the other's side of the body are a chain that crossed over:
+    the ends are given to each other, and kept when fewer pairs cross. Here the search is made to hand each
+    hand's end to the other arm (Vercingetorix with his arms bent), and the rig is the one without it."""
+    import autorig
+    import autorig.embed as embed_module
+    from autorig.confidence import crossed_pairs
+    from poses import write_posed
+    folder = write_posed(VERCINGETORIX, "arms bent", tmp_path)
+    meta = json.loads((folder / "joints.json").read_text())
+    options = autorig.RigOptions(up="y", front="z")
+    right = autorig.rig(folder / "mesh.obj", "biped", options)
+    template = load_template("biped")
+    hand = [list(template.names).index("left_hand_end")]
+    searched = embed_module.embed
+    swaps = []
+
+    def crossing(graph, template, *args, **kwargs):       # the search's answer with the hands' ends swapped
+        found = embed_module.swap_mirrored(graph, template, searched(graph, template, *args, **kwargs), hand)
+        swaps.append(found.swapped)
+        return found
+    monkeypatch.setattr(embed_module, "embed", crossing)
+    rig = autorig.rig(folder / "mesh.obj", "biped", options)
+    assert swaps and all(swaps)
+    assert np.allclose(rig.joints, right.joints, atol=1e-9 * meta["height_along_up"])
+    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    assert verdict["structure"] and max(verdict["errors"][n] for n in ("left_elbow", "right_elbow")) < 8.0
+    # Without the check the swapped search's rig has its elbows crossed: what the check mends.
+    monkeypatch.setattr("autorig.confidence.crossed_pairs", lambda joints, template: [])
+    crossed = autorig.rig(folder / "mesh.obj", "biped", options)
+    names = list(crossed.names)
+    assert score_ends(meta, names, np.asarray(crossed.joints))["errors"]["left_elbow"] > 15.0
