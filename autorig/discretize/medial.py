@@ -92,7 +92,7 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
                                       nudged)
                            for n, idx, x, c, fc, end in ((a_number, a_idx, a, ca, fa, -1.0),
                                                          (b_number, b_idx, b, cb, fb, 1.0))))
-    ties = _Ties(field, reads)
+    ties = _Ties(field, reads, nudged)
     points, radii, weights = [], [], []
     for (signs, rows), (read_a, read_b) in zip(sides, reads):
         part = (lambda x: x) if len(rows) == len(axis) else (lambda x: x[rows])   # every edge: no copies
@@ -261,6 +261,7 @@ class _NudgedNearest:
         # As the points were read one edge end at a time: the end, then the nudge added (the same floats).
         ends = field.origin + grid_index(numbers, field.max_level) * field.finest
         self.points, self.faces = field.surface.nearest_and_faces(ends + nudge * NUDGE * field.finest)
+        self.ends, self.nudge = ends, nudge
 
     @staticmethod
     def _key(numbers, nudge) -> np.ndarray:
@@ -341,14 +342,12 @@ class _Ties:
     continuously with the mesh, and not at all where no part is nearly tied. An end's candidate parts are the
     triangles nearest it and the other ends of the edges at its corner.
 
-    pairs: the (a-end, b-end) ``_Reads`` of every side's edges (``_plane_sides``), in the order that
-    ``crossings`` is asked for them."""
+    pairs: the (a-end, b-end) ``_Reads`` of every side's edges (``_plane_sides``); nudged: the nudged reads'
+    nearest points (``_NudgedNearest``)."""
 
-    def __init__(self, field: DistanceField, pairs: list[tuple[_Reads, _Reads]]):
+    def __init__(self, field: DistanceField, pairs: list[tuple[_Reads, _Reads]], nudged: "_NudgedNearest"):
         vertices, triangles = field.surface.vertices, field.surface.faces
         n_faces = np.int64(len(triangles))
-        reads = [r for pair in pairs for r in pair]
-        numbers = np.concatenate([r.numbers for r in reads]).astype(np.int64)
         # (corner, triangle) pairs: the triangle of each edge's other end, and a corner's own when it is read
         # more than one way (nudged off a centre plane to either side). Only those that can differ from the
         # read's own triangle are listed (the own one is no candidate): a third of the edges' ends or fewer.
@@ -361,20 +360,26 @@ class _Ties:
                 moved = here.keys % 27 != _UNMOVED
                 listed.append(here.numbers[moved].astype(np.int64) * n_faces + here.faces[moved])
         candidates = np.unique(np.concatenate(listed))
-        # The distinct reads of the corners that have candidates: a corner read where it is or nudged one way.
-        corners_listed = np.unique(candidates // n_faces)
-        keys = np.concatenate([r.keys for r in reads])
-        found = np.searchsorted(corners_listed, numbers)
-        listed_read = np.flatnonzero(corners_listed[np.minimum(found, len(corners_listed) - 1)] == numbers) \
-            if len(corners_listed) else np.zeros(0, dtype=np.int64)
-        read_keys, first = np.unique(keys[listed_read], return_index=True)
-        first = listed_read[first]
-        point = np.concatenate([r.points for r in reads])[first]
-        nearest = np.concatenate([r.nearest for r in reads])[first]
-        own = np.concatenate([r.faces for r in reads])[first]
-        start = np.searchsorted(candidates, numbers[first] * n_faces)
-        count = np.searchsorted(candidates, (numbers[first] + 1) * n_faces) - start
-        read = np.repeat(np.arange(len(first)), count)
+        # The distinct reads of the corners that have candidates: a corner read where it is (unless it lies on a
+        # centre plane, where it is only read nudged off it), or nudged one way (``_NudgedNearest``, each once).
+        corner = candidates // n_faces
+        corners_listed = corner[np.r_[True, corner[1:] != corner[:-1]]] if len(corner) else corner
+        idx = grid_index(corners_listed, field.max_level)
+        plain = corners_listed[~np.any(idx == 2 ** (field.max_level - 1), axis=1)]
+        rows = field.corner_row[plain]
+        moved = nudged.keys // 27
+        moved = np.flatnonzero(np.isin(moved, corners_listed))
+        read_keys = np.concatenate([plain * 27 + _UNMOVED, nudged.keys[moved]])
+        order = np.argsort(read_keys, kind="stable")
+        read_keys = read_keys[order]
+        first_numbers = np.concatenate([plain, nudged.keys[moved] // 27])[order]
+        point = np.concatenate([field.origin + grid_index(plain, field.max_level) * field.finest,
+                                nudged.ends[moved] + nudged.nudge[moved] * NUDGE * field.finest])[order]
+        nearest = np.concatenate([field.corner_nearest[rows], nudged.points[moved]])[order]
+        own = np.concatenate([_corner_faces(field, rows), nudged.faces[moved]])[order]
+        start = np.searchsorted(candidates, first_numbers * n_faces)
+        count = np.searchsorted(candidates, (first_numbers + 1) * n_faces) - start
+        read = np.repeat(np.arange(len(read_keys)), count)
         face = candidates[start[read] + np.arange(len(read)) - np.repeat(np.cumsum(count) - count, count)] % n_faces
         read, face = read[face != own[read]], face[face != own[read]]
         corners = vertices[triangles[face]]
