@@ -70,6 +70,14 @@ class SurfaceQuery:
             return np.zeros((0, 3))
         return self._squared_distance(points)[1]
 
+    def nearest_and_faces(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """([N, 3] the nearest surface point of each point, [N] the index of the triangle it lies on)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if len(points) == 0:
+            return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        _, nearest, face = self._squared_distance(points, faces=True)
+        return nearest, face
+
     def nearest_faces(self, points: np.ndarray) -> np.ndarray:
         """[N] the index of the triangle nearest each point [N, 3]."""
         points = np.ascontiguousarray(points, dtype=np.float64)
@@ -79,7 +87,13 @@ class SurfaceQuery:
 
     def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
                 known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point.
+        """Signed depth [N] (> 0 inside) and nearest surface point [N, 3] of each point (``closest_on``)."""
+        return self.closest_on(points, known_points, known_depth)[:2]
+
+    def closest_on(self, points: np.ndarray, known_points: np.ndarray | None = None,
+                   known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Signed depth [N] (> 0 inside), nearest surface point [N, 3] and the triangle it lies on [N] of each
+        point.
 
         known_points [N, 3], known_depth [N]: optionally, for each point a nearby point whose signed depth is
         known. A point farther from the surface than from its known neighbour is on the same side of the
@@ -87,8 +101,8 @@ class SurfaceQuery:
         """
         points = np.ascontiguousarray(points, dtype=np.float64)
         if len(points) == 0:
-            return np.zeros(0), np.zeros((0, 3))
-        sq, nearest = self._squared_distance(points)
+            return np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        sq, nearest, face = self._squared_distance(points, faces=True)
         distance = np.sqrt(sq)
         sign = np.ones(len(points))
         if known_points is None:
@@ -98,10 +112,11 @@ class SurfaceQuery:
             unsure = (gap >= distance) | (known_depth == 0)
             sign[~unsure] = np.sign(known_depth[~unsure])
         sign[unsure] = np.where(self.winding(points[unsure]) >= 0.5, 1.0, -1.0)
-        return sign * distance, nearest
+        return sign * distance, nearest, face
 
-    def _squared_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(squared distance [N], nearest surface point [N, 3]) of points [N, 3] (float64, C order).
+    def _squared_distance(self, points: np.ndarray, faces: bool = False) -> tuple:
+        """(squared distance [N], nearest surface point [N, 3]) of points [N, 3] (float64, C order), and with
+        ``faces`` the index [N] of the triangle each nearest point lies on.
 
         The points go to libigl's tree in Morton order (along a space-filling curve over the mesh's box), and
         the answers come back in the caller's order: each point's answer is computed alone, the same in any
@@ -109,13 +124,14 @@ class SurfaceQuery:
         (a 60k-face mesh's 98k field corners: CPU 0.57 s in the grid's x-major order, 0.50 s in this one,
         0.90 s shuffled)."""
         if len(points) < MORTON_MIN:
-            sq, _, nearest = self._tree.squared_distance(self.vertices, self.faces, points)
-            return sq, nearest
+            sq, face, nearest = self._tree.squared_distance(self.vertices, self.faces, points)
+            return (sq, nearest, np.asarray(face, dtype=np.int64)) if faces else (sq, nearest)
         order = self._morton_order(points)
-        sq, _, nearest = self._tree.squared_distance(self.vertices, self.faces, np.ascontiguousarray(points[order]))
-        out_sq, out_nearest = np.empty_like(sq), np.empty_like(nearest)
-        out_sq[order], out_nearest[order] = sq, nearest
-        return out_sq, out_nearest
+        sq, face, nearest = self._tree.squared_distance(self.vertices, self.faces,
+                                                        np.ascontiguousarray(points[order]))
+        out_sq, out_nearest, out_face = np.empty_like(sq), np.empty_like(nearest), np.empty(len(sq), np.int64)
+        out_sq[order], out_nearest[order], out_face[order] = sq, nearest, face
+        return (out_sq, out_nearest, out_face) if faces else (out_sq, out_nearest)
 
     def _morton_order(self, points: np.ndarray) -> np.ndarray:
         """[N] the order of points [N, 3] along a Morton (Z-order) curve over the mesh's box."""
@@ -152,6 +168,7 @@ class DistanceField:
     leaf_values [C, 8] signed depth at each leaf's corners (order of ``CORNERS``)
     corner_depth [K] signed depth at every evaluated corner, in the order they were evaluated
     corner_nearest [K, 3] nearest surface point of those corners
+    corner_face [K] the triangle each nearest point lies on
     surface    the exact query object, for callers that need exact values
     corner_row [(2**max_level + 1)**3] row in corner_depth (and corner_nearest) of each point of the finest
                grid (x-major; -1 where no corner was evaluated); see ``corner_rows``
@@ -166,6 +183,7 @@ class DistanceField:
     corner_nearest: np.ndarray
     surface: SurfaceQuery
     corner_row: np.ndarray
+    corner_face: np.ndarray | None = None
     _level_index: list | None = None
 
     @property
@@ -358,6 +376,7 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
     row_of = np.full(side ** 3, -1, dtype=np.int32)
     known_depth = np.zeros(0)                      # [K] signed depth in order of evaluation
     nearest_parts = []                             # [k, 3] nearest surface points, batch by batch
+    face_parts = []                                # [k] the triangles they lie on
 
     def evaluate(corner_index: np.ndarray, parent_edge: int = 0) -> np.ndarray:
         """Depth [N] at integer corner coordinates [N, 3] (finest units); depths and nearest points are kept.
@@ -373,12 +392,13 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
             if parent_edge:
                 anchor = np.rint(new_index / parent_edge).astype(np.int64) * parent_edge
                 anchor_depth = known_depth[row_of[grid_number(anchor, max_level)]]
-                d, near = surface.closest(points, origin + anchor * finest, anchor_depth)
+                d, near, face = surface.closest_on(points, origin + anchor * finest, anchor_depth)
             else:
-                d, near = surface.closest(points)
+                d, near, face = surface.closest_on(points)
             row_of[new] = np.arange(len(known_depth), len(known_depth) + len(new), dtype=np.int32)
             known_depth = np.concatenate([known_depth, d])
             nearest_parts.append(near)
+            face_parts.append(face)
             rows = row_of[numbers]
         return known_depth[rows]
 
@@ -419,4 +439,5 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
         origin=origin, size=size, max_level=max_level,
         leaf_level=np.concatenate(leaves_level), leaf_index=np.concatenate(leaves_index),
         leaf_values=np.concatenate(leaves_values), corner_depth=known_depth,
-        corner_nearest=np.concatenate(nearest_parts), surface=surface, corner_row=row_of)
+        corner_nearest=np.concatenate(nearest_parts), surface=surface, corner_row=row_of,
+        corner_face=np.concatenate(face_parts))

@@ -6,6 +6,11 @@ whose two inside corners look at surface points in clearly different directions,
 the edge where the point is equally far from both surface points (the bisector plane of the two). Each such
 crossing is a medial sample, and its distance to the surface is the radius of a maximal inscribed sphere.
 
+A corner within a rounding error of a crease between two other surface parts could read its nearest point on
+either, and an edge at it turn past the threshold or not: such an end is read through both parts, and a
+crossing only the farther one gives counts with a weight that is 1 while the two parts are tied to within
+what a re-export's rounding can change and fades to 0 soon after (``_Ties``).
+
 Spheres are then packed greedily, largest first, keeping a sphere only if its centre lies in no sphere kept
 before. Few large spheres fill the torso, chains of small ones fill the limbs: the graph built on them is
 small but still follows every limb.
@@ -26,9 +31,12 @@ EDGE_AXIS = np.argmax(CORNERS[EDGES[:, 1]] - CORNERS[EDGES[:, 0]], axis=1)   # [
 
 @dataclass
 class MedialSamples:
-    """points [M, 3] on the approximate medial surface; radii [M] their distance to the surface."""
+    """points [M, 3] on the approximate medial surface; radii [M] their distance to the surface; weights [M] in
+    (0, 1]: 1 for a crossing its edge's ends read as they are, less for one they read only through a nearly tied
+    surface part (``TIE``; None: all 1)."""
     points: np.ndarray
     radii: np.ndarray
+    weights: np.ndarray | None = None
 
 
 @dataclass
@@ -74,22 +82,38 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     nudged = _NudgedNearest(field, [_nudges(field, idx[moved], axis[moved], end, signs)
                                     for signs, rows in sides for idx, end in ((a_idx, -1.0), (b_idx, 1.0))
                                     for moved in [rows[on_plane[end][rows]]]])
-    points, radii = [], []
+    # Both ends of every edge as read (a corner on a centre plane read off it), side by side.
+    fa, fb = _corner_faces(field, ia), _corner_faces(field, ib)
+    b_number = grid_number(b_idx, field.max_level)
+    reads = []
     for signs, rows in sides:
         part = (lambda x: x) if len(rows) == len(axis) else (lambda x: x[rows])   # every edge: no copies
-        sa, sb = _off_the_centre_planes(field, part(a_idx), part(b_idx), part(axis), part(a), part(b),
-                                        part(ca), part(cb), signs, nudged)
-        p, r = _crossings(part(a), part(b), sa, sb, part(da), part(db), cos_turn)
-        points.append(p)
-        radii.append(r)
-    return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii))
+        reads.append(tuple(_end_reads(field, part(n), part(idx), part(axis), part(x), part(c), part(fc), end, signs,
+                                      nudged)
+                           for n, idx, x, c, fc, end in ((a_number, a_idx, a, ca, fa, -1.0),
+                                                         (b_number, b_idx, b, cb, fb, 1.0))))
+    ties = _Ties(field, reads, nudged)
+    points, radii, weights = [], [], []
+    for (signs, rows), (read_a, read_b) in zip(sides, reads):
+        part = (lambda x: x) if len(rows) == len(axis) else (lambda x: x[rows])   # every edge: no copies
+        p, r, crossed = _crossings(part(a), part(b), read_a.nearest, read_b.nearest, part(da), part(db),
+                                   cos_turn, with_edges=True)
+        tied_p, tied_r, tied_w = ties.crossings(part(a), part(b), (read_a, read_b), part(da), part(db),
+                                                cos_turn, np.flatnonzero(~crossed))
+        points += [p, tied_p]
+        radii += [r, tied_r]
+        weights += [np.ones(len(r)), tied_w]
+    return MedialSamples(points=np.concatenate(points), radii=np.concatenate(radii),
+                         weights=np.concatenate(weights))
 
 
-def _crossings(a, b, ca, cb, da, db, cos_turn):
-    """Where the edges a-b cross the medial surface of the nearest points ca, cb: (points, radii)."""
+def _crossings(a, b, ca, cb, da, db, cos_turn, with_edges: bool = False):
+    """Where the edges a-b cross the medial surface of the nearest points ca, cb: (points, radii), and with
+    ``with_edges`` a mask [E] of the edges that gave one."""
     ga = (a - ca) / da[:, None]
     gb = (b - cb) / db[:, None]
     turned = np.einsum("ij,ij->i", ga, gb) < cos_turn
+    turned_rows = np.flatnonzero(turned)
     a, b, ca, cb = a[turned], b[turned], ca[turned], cb[turned]
     # Point x = a + t (b - a) equally far from ca and cb: 2 x.(cb - ca) = |cb|^2 - |ca|^2.
     n = cb - ca
@@ -100,6 +124,10 @@ def _crossings(a, b, ca, cb, da, db, cos_turn):
     ok = np.isfinite(t) & (t >= 0) & (t <= 1)
     points = a[ok] + t[ok, None] * (b[ok] - a[ok])
     radii = np.linalg.norm(points - ca[ok], axis=1)
+    if with_edges:
+        crossed = np.zeros(len(turned), dtype=bool)
+        crossed[turned_rows[ok]] = True
+        return points, radii, crossed
     return points, radii
 
 
@@ -122,7 +150,12 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
         from ..errors import RigFailedError
         raise RigFailedError("the mesh encloses no volume that a skeleton could sit in (is it an open sheet, "
                              "or much thinner than it is wide?)")
+    weights = np.ones(len(samples.radii)) if samples.weights is None else samples.weights
+    # A sample read through a nearly tied surface part (``TIE``) counts as a sphere of its radius times its
+    # weight when visited and kept: it fades out of the packing as the tie it hangs on fades.
+    keep_mask &= samples.radii * weights > min_radius
     points, radii = samples.points[keep_mask], samples.radii[keep_mask]
+    visit = radii * weights[keep_mask]
     # Largest first, but radii within RADIUS_STEP of each other count as equal and go innermost first. Samples
     # often tie on their radius (all along a prism-shaped limb of a low-poly mesh), and which of them is
     # visited first decides which are kept, and through what each covers, the whole packing: by coordinates,
@@ -135,7 +168,7 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
     inward = np.sort((points - middle) ** 2, axis=1).sum(axis=1)   # summed in an order the axes' cannot change
     own = points if rotation is None else points @ np.asarray(rotation, dtype=np.float64).T
     order = np.lexsort((own[:, 2], own[:, 1], own[:, 0], np.floor(np.sqrt(inward) / RADIUS_STEP),
-                        -np.floor(radii / RADIUS_STEP)))
+                        -np.floor(visit / RADIUS_STEP)))
     points, radii = points[order], radii[order]
     tree = cKDTree(points)
     covered = np.zeros(len(points), dtype=bool)
@@ -151,6 +184,8 @@ def pack_spheres(samples: MedialSamples, min_radius: float = 0.0, rotation: np.n
 
 RADIUS_STEP = 1e-4   # heights: medial radii this close are visited as equal (``pack_spheres``)
 NUDGE = 0.05   # of the finest cell: how far off a centre-plane corner its edge's nearest point is read
+REEXPORT = 1e-6   # heights: how far a re-export's rounding may move a vertex (issue 37's noise)
+TIE = 10 * REEXPORT   # heights: a surface part this little farther from an edge end than its nearest is tied with it
 
 
 def _plane_sides(field: DistanceField, a_idx, axis):
@@ -187,15 +222,14 @@ def _off_the_centre_planes(field: DistanceField, a_idx, b_idx, axis, a, b, ca, c
 
     nudged: the nearest points of the nudged ends, asked for already (``_NudgedNearest``); None: asked here.
     """
-    centre = 2 ** (field.max_level - 1)
-    out = []
-    for idx, nearest, end in ((a_idx, ca, -1.0), (b_idx, cb, 1.0)):
-        moved = np.flatnonzero(np.any(idx == centre, axis=1))     # the ends with a nudge
-        nearest = nearest.copy()
-        if len(moved):
-            numbers, nudge = _nudges(field, idx[moved], axis[moved], end, signs)
-            nearest[moved] = (nudged or _NudgedNearest(field, [(numbers, nudge)])).nearest(numbers, nudge)
-        out.append(nearest)
+    ends = ((a_idx, a, ca, -1.0), (b_idx, b, cb, 1.0))
+    if nudged is None:
+        centre = 2 ** (field.max_level - 1)
+        nudged = _NudgedNearest(field, [_nudges(field, idx[moved], axis[moved], end, signs)
+                                        for idx, _, _, end in ends
+                                        for moved in [np.flatnonzero(np.any(idx == centre, axis=1))]])
+    out = [_end_reads(field, grid_number(idx, field.max_level), idx, axis, x, c, np.zeros(len(c), dtype=np.int64),
+                      end, signs, nudged).nearest for idx, x, c, end in ends]
     return out[0], out[1]
 
 
@@ -226,7 +260,8 @@ class _NudgedNearest:
         nudge = np.stack([code // 9, code // 3 % 3, code % 3], axis=1).astype(float) - 1.0
         # As the points were read one edge end at a time: the end, then the nudge added (the same floats).
         ends = field.origin + grid_index(numbers, field.max_level) * field.finest
-        self.points = field.surface.nearest(ends + nudge * NUDGE * field.finest)
+        self.points, self.faces = field.surface.nearest_and_faces(ends + nudge * NUDGE * field.finest)
+        self.ends, self.nudge = ends, nudge
 
     @staticmethod
     def _key(numbers, nudge) -> np.ndarray:
@@ -237,3 +272,191 @@ class _NudgedNearest:
         """[N, 3] nearest surface points of the corners ``numbers`` [N] nudged by ``nudge`` [N, 3] (asked for
         at construction)."""
         return self.points[np.searchsorted(self.keys, self._key(numbers, nudge))]
+
+    def nearest_and_faces(self, numbers, nudge) -> tuple[np.ndarray, np.ndarray]:
+        """(``nearest``, [N] the triangles those points lie on)."""
+        rows = np.searchsorted(self.keys, self._key(numbers, nudge))
+        return self.points[rows], self.faces[rows]
+
+
+def _corner_faces(field: DistanceField, rows: np.ndarray) -> np.ndarray:
+    """[N] the triangle of the nearest surface point of the field's corners ``rows``."""
+    if field.corner_face is not None:
+        return field.corner_face[rows]
+    return field.surface.nearest_and_faces(field.corner_nearest[rows])[1]   # the triangle under the point
+
+
+@dataclass
+class _Reads:
+    """Where one end of each of a set of edges is read: the grid numbers of its corner [E], a key [E] of the
+    read (the corner and which way it is nudged, ``_NudgedNearest._key``), the point read [E, 3], its nearest
+    surface point [E, 3] and the triangle that lies on [E]."""
+    numbers: np.ndarray
+    keys: np.ndarray
+    points: np.ndarray
+    nearest: np.ndarray
+    faces: np.ndarray
+
+
+def _end_reads(field: DistanceField, numbers, idx, axis, ends, nearest, faces, end: float, signs,
+               nudged) -> _Reads:
+    """The ``_Reads`` of one end of each edge: the corner itself, or nudged off a centre plane
+    (``_off_the_centre_planes``), with the same nearest points as ``_off_the_centre_planes`` gives."""
+    centre = 2 ** (field.max_level - 1)
+    moved = np.flatnonzero(np.any(idx == centre, axis=1))
+    keys = numbers.astype(np.int64) * 27 + _UNMOVED      # _NudgedNearest._key of a read without a nudge
+    if not len(moved):
+        return _Reads(numbers, keys, ends, nearest, faces)
+    points, nearest, faces = ends.copy(), nearest.copy(), faces.copy()
+    moved_numbers, nudge = _nudges(field, idx[moved], axis[moved], end, signs)
+    # as _NudgedNearest computed them: the end's grid point, then the nudge added (the same floats)
+    points[moved] = (field.origin + grid_index(moved_numbers, field.max_level) * field.finest
+                     + nudge * NUDGE * field.finest)
+    nearest[moved], faces[moved] = nudged.nearest_and_faces(moved_numbers, nudge)
+    keys[moved] = _NudgedNearest._key(moved_numbers, nudge)
+    return _Reads(numbers, keys, points, nearest, faces)
+
+
+_UNMOVED = 13   # _NudgedNearest._key's code (mod 27) of a corner read where it is
+
+
+def _tie_weight(margin):
+    """The weight [N] of a reading through a surface part ``margin`` [N] (heights) farther than the nearest: 1
+    up to half of ``TIE`` (where a rounding error's change of the mesh cannot reach it, from a tie), then down
+    smoothly (smoothstep) to 0 at ``TIE``."""
+    x = np.clip(2.0 * np.asarray(margin) / TIE - 1.0, 0.0, 1.0)
+    return 1.0 - x * x * (3.0 - 2.0 * x)
+
+
+class _Ties:
+    """The surface parts nearly tied with the nearest of an edge end (``TIE``), and the crossings an edge has
+    only when its ends are read through them.
+
+    A grid corner on (or within a rounding error of) a crease of the distance field between two surface parts
+    reads its nearest point on either, as the floats fall; whether an edge at it turns by more than the angle
+    asked for can hang on that, and with it a sample as large as the body there (a 0 A.D. hippo's neck: a
+    corner within 1e-6 of the height of the crease between two triangles of the neck's side, its edge turning 61 or 79
+    degrees from the top of the neck). Such an end is read through either part: a crossing found only through
+    the farther one counts with the weight of its margin (``_tie_weight``), 1 near the tie, so that the
+    reading that floats chose makes no difference, and 0 from ``TIE`` on, so that the samples change
+    continuously with the mesh, and not at all where no part is nearly tied. An end's candidate parts are the
+    triangles nearest it and the other ends of the edges at its corner.
+
+    pairs: the (a-end, b-end) ``_Reads`` of every side's edges (``_plane_sides``); nudged: the nudged reads'
+    nearest points (``_NudgedNearest``)."""
+
+    def __init__(self, field: DistanceField, pairs: list[tuple[_Reads, _Reads]], nudged: "_NudgedNearest"):
+        vertices, triangles = field.surface.vertices, field.surface.faces
+        n_faces = np.int64(len(triangles))
+        # (corner, triangle) pairs: the triangle of each edge's other end, and a corner's own when it is read
+        # more than one way (nudged off a centre plane to either side). Only those that can differ from the
+        # read's own triangle are listed (the own one is no candidate): a third of the edges' ends or fewer.
+        listed = []
+        for ra, rb in pairs:
+            differ = ra.faces != rb.faces
+            for here, there in ((ra, rb), (rb, ra)):
+                rows = differ | (here.keys % 27 != _UNMOVED)
+                listed.append(here.numbers[rows].astype(np.int64) * n_faces + there.faces[rows])
+                moved = here.keys % 27 != _UNMOVED
+                listed.append(here.numbers[moved].astype(np.int64) * n_faces + here.faces[moved])
+        candidates = np.unique(np.concatenate(listed))
+        # The distinct reads of the corners that have candidates: a corner read where it is (unless it lies on a
+        # centre plane, where it is only read nudged off it), or nudged one way (``_NudgedNearest``, each once).
+        corner = candidates // n_faces
+        corners_listed = corner[np.r_[True, corner[1:] != corner[:-1]]] if len(corner) else corner
+        idx = grid_index(corners_listed, field.max_level)
+        plain = corners_listed[~np.any(idx == 2 ** (field.max_level - 1), axis=1)]
+        rows = field.corner_row[plain]
+        moved = nudged.keys // 27
+        moved = np.flatnonzero(np.isin(moved, corners_listed))
+        read_keys = np.concatenate([plain * 27 + _UNMOVED, nudged.keys[moved]])
+        order = np.argsort(read_keys, kind="stable")
+        read_keys = read_keys[order]
+        first_numbers = np.concatenate([plain, nudged.keys[moved] // 27])[order]
+        point = np.concatenate([field.origin + grid_index(plain, field.max_level) * field.finest,
+                                nudged.ends[moved] + nudged.nudge[moved] * NUDGE * field.finest])[order]
+        nearest = np.concatenate([field.corner_nearest[rows], nudged.points[moved]])[order]
+        own = np.concatenate([_corner_faces(field, rows), nudged.faces[moved]])[order]
+        start = np.searchsorted(candidates, first_numbers * n_faces)
+        count = np.searchsorted(candidates, (first_numbers + 1) * n_faces) - start
+        read = np.repeat(np.arange(len(read_keys)), count)
+        face = candidates[start[read] + np.arange(len(read)) - np.repeat(np.cumsum(count) - count, count)] % n_faces
+        read, face = read[face != own[read]], face[face != own[read]]
+        corners = vertices[triangles[face]]
+        # A triangle is no nearer than its plane: most candidates' planes are farther than the tie reaches.
+        normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            plane = np.abs(np.einsum("ij,ij->i", point[read] - corners[:, 0], normal)) / np.linalg.norm(normal, axis=1)
+        reach = np.linalg.norm(point[read] - nearest[read], axis=1) + TIE
+        maybe = ~(plane >= reach)            # a degenerate triangle (no plane) is measured
+        read, face, corners = read[maybe], face[maybe], corners[maybe]
+        foot = _closest_on_triangles(point[read], corners[:, 0], corners[:, 1], corners[:, 2])
+        margin = np.linalg.norm(point[read] - foot, axis=1) - np.linalg.norm(point[read] - nearest[read], axis=1)
+        # Tied, and another part: a triangle whose nearest point is the read's own (a neighbour of its triangle
+        # at the edge or corner the nearest point lies on) turns no edge another way.
+        near = (margin < TIE) & (np.linalg.norm(foot - nearest[read], axis=1) > TIE)
+        # Each read's nearly tied parts, by the read's key (sorted: read is): the foot on each and its weight.
+        self.key, self.foot = read_keys[read[near]], foot[near]
+        self.weight = _tie_weight(np.maximum(margin[near], 0.0))
+
+    def crossings(self, a, b, reads: tuple[_Reads, _Reads], da, db, cos_turn, edges):
+        """(points, radii, weights) of the crossings of the edges ``edges`` (indices) that only a reading of
+        their ends through nearly tied parts finds: at most one per edge, the one of the largest weight (then
+        the largest radius, then the lowest coordinates: whatever the order of the ends' parts)."""
+        empty = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+        spans = [(np.searchsorted(self.key, r.keys[edges]), np.searchsorted(self.key, r.keys[edges], side="right"))
+                 for r in reads]
+        (lo_a, hi_a), (lo_b, hi_b) = spans
+        tied = (hi_a > lo_a) | (hi_b > lo_b)
+        edges, lo_a, hi_a, lo_b, hi_b = edges[tied], lo_a[tied], hi_a[tied], lo_b[tied], hi_b[tied]
+        if not len(edges):
+            return empty
+        # Every combination of the two ends' options (-1: as read, else a row of the tied parts), but the
+        # ends as read both.
+        ka, kb = hi_a - lo_a + 1, hi_b - lo_b + 1
+        pair = np.repeat(np.arange(len(edges)), ka * kb)
+        within = np.arange(len(pair)) - np.repeat(np.cumsum(ka * kb) - ka * kb, ka * kb)
+        ia, ib = within // kb[pair], within % kb[pair]
+        opt_a = np.where(ia == 0, -1, lo_a[pair] + ia - 1)
+        opt_b = np.where(ib == 0, -1, lo_b[pair] + ib - 1)
+        keep = (opt_a >= 0) | (opt_b >= 0)
+        pair, opt_a, opt_b = pair[keep], opt_a[keep], opt_b[keep]
+        rows = edges[pair]
+        feet, weight = [], np.ones(len(pair))
+        for r, opt in zip(reads, (opt_a, opt_b)):
+            feet.append(np.where((opt < 0)[:, None], r.nearest[rows], self.foot[np.maximum(opt, 0)]))
+            weight *= np.where(opt < 0, 1.0, self.weight[np.maximum(opt, 0)])
+        p, r, crossed = _crossings(a[rows], b[rows], feet[0], feet[1], da[rows], db[rows], cos_turn,
+                                   with_edges=True)
+        pair, weight = pair[crossed], weight[crossed]
+        if not len(pair):
+            return empty
+        order = np.lexsort((p[:, 2], p[:, 1], p[:, 0], -r, -weight, pair))
+        first = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]
+        return p[first], r[first], weight[first]
+
+
+def _closest_on_triangles(p, a, b, c):
+    """[N, 3] the point of each triangle (a, b, c) [N, 3] nearest p [N, 3]: p's projection on the triangle's
+    plane where that falls inside it, else the nearest point of its three edges (a degenerate triangle, a
+    segment or a point, has no inside)."""
+    dot = lambda x, y: np.einsum("ij,ij->i", x, y)    # noqa: E731
+    ab, ac, ap = b - a, c - a, p - a
+    d00, d01, d11, d20, d21 = dot(ab, ab), dot(ab, ac), dot(ac, ac), dot(ap, ab), dot(ap, ac)
+    area = d00 * d11 - d01 * d01                      # squared, times 4: Gram determinant of ab, ac
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = (d11 * d20 - d01 * d21) / area
+        w = (d00 * d21 - d01 * d20) / area
+        inside = (area > 1e-12 * d00 * d11) & (v >= 0) & (w >= 0) & (v + w <= 1)
+    best = a + ab * np.where(inside, v, 0.0)[:, None] + ac * np.where(inside, w, 0.0)[:, None]
+    best_sq = np.where(inside, dot(p - best, p - best), np.inf)
+    for s, e in ((a, b), (b, c), (c, a)):
+        se = e - s
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.clip(np.nan_to_num(dot(p - s, se) / dot(se, se)), 0.0, 1.0)
+        q = s + se * t[:, None]
+        sq = dot(p - q, p - q)
+        nearer = sq < best_sq
+        best = np.where(nearer[:, None], q, best)
+        best_sq = np.where(nearer, sq, best_sq)
+    return best
