@@ -13,11 +13,12 @@ positive inside ("depth"), negative outside.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field as dataclass_field
 
 import numpy as np
 
 from ..input.limits import MAX_FIELD_POINTS, check_layers, over_budget
+from ..input.facing import unique_ints
 
 # Offsets of a cell's 8 corners in units of the cell edge, in the order used for trilinear weights.
 CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int64)
@@ -41,6 +42,15 @@ class SurfaceQuery:
         self._winding_tree.init(self.vertices, self.faces)
         self._lo = self.vertices.min(axis=0)
         self._cell = max(float(np.ptp(self.vertices, axis=0).max()), 1e-300) / (2 ** MORTON_BITS - 1)
+        self._edges = None
+
+    def edges(self) -> np.ndarray:
+        """[E, 2] every edge of the surface once, (i, j) with i < j (``autorig.input.facing.mesh_edges``), worked
+        out once: the sphere graph's contacts and the tips' surface walk the same edges."""
+        if self._edges is None:
+            from ..input.facing import mesh_edges
+            self._edges = mesh_edges(len(self.vertices), self.faces)
+        return self._edges
 
     def winding(self, points: np.ndarray) -> np.ndarray:
         """[N] generalized winding number of each point."""
@@ -167,6 +177,7 @@ class DistanceField:
     surface: SurfaceQuery
     corner_row: np.ndarray
     _level_index: list | None = None
+    _spread: dict = dataclass_field(default_factory=dict, repr=False, compare=False)
 
     @property
     def finest(self) -> float:
@@ -281,6 +292,11 @@ class DistanceField:
         """[V, 3] the working mesh's vertices, in this field's frame."""
         return self.surface.vertices
 
+    def spread_vertices(self, count: int) -> np.ndarray:
+        """``surface_vertices[spread(surface_vertices, count)]`` (``autorig.input.mesh.spread``), worked out once
+        per count: the refinement's and the confidence's mirror-pair weights sample the same points."""
+        return _spread_of(self, count)
+
 
 @dataclass
 class MovedField:
@@ -291,6 +307,8 @@ class MovedField:
     rotation: np.ndarray
     offset: np.ndarray
     scale: float
+    _vertices: np.ndarray | None = dataclass_field(default=None, repr=False, compare=False)
+    _spread: dict = dataclass_field(default_factory=dict, repr=False, compare=False)
 
     def depth(self, points: np.ndarray) -> np.ndarray:
         return self.depth_and_gradient(points)[0]
@@ -308,12 +326,28 @@ class MovedField:
 
     @property
     def surface_vertices(self) -> np.ndarray:
-        """[V, 3] the working mesh's vertices, in this frame."""
-        return self.scale * self.base.surface_vertices @ self.rotation.T + self.offset
+        """[V, 3] the working mesh's vertices, in this frame (worked out once: not to be written to, like the
+        unmoved field's)."""
+        if self._vertices is None:
+            self._vertices = self.scale * self.base.surface_vertices @ self.rotation.T + self.offset
+        return self._vertices
+
+    def spread_vertices(self, count: int) -> np.ndarray:
+        """As ``DistanceField.spread_vertices``, in this frame."""
+        return _spread_of(self, count)
 
     def _in_base(self, points: np.ndarray) -> np.ndarray:
         """Points [N, 3] of this frame in the frame the field was built in."""
         return ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
+
+
+def _spread_of(field, count: int) -> np.ndarray:
+    """``field.surface_vertices`` at ``spread(field.surface_vertices, count)``, kept in ``field._spread``."""
+    if count not in field._spread:
+        from ..input.mesh import spread
+        vertices = np.asarray(field.surface_vertices, dtype=np.float64)
+        field._spread[count] = vertices[spread(vertices, count)]
+    return field._spread[count]
 
 
 def _key(index: np.ndarray) -> np.ndarray:
@@ -366,7 +400,7 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
         nonlocal known_depth
         numbers = grid_number(corner_index, max_level)
         rows = row_of[numbers]
-        new = np.unique(numbers[rows < 0])
+        new = unique_ints(numbers[rows < 0])
         if len(new):
             new_index = grid_index(new, max_level)
             points = origin + new_index * finest

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..input.facing import unique_ints
 from .distance import DistanceField
 from .medial import Spheres
 TIE = 1e-9   # gaps this close (of the largest radius) are equal: ``_bridge_pieces`` bridges them all
@@ -203,14 +204,12 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
         return out
     surface = field.surface
     vertices, faces = surface.vertices, surface.faces
-    edges = np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    key = np.unique(edges[:, 0] * np.int64(len(vertices)) + edges[:, 1])     # each edge once
-    edges = np.c_[key // len(vertices), key % len(vertices)]
+    edges = surface.edges()     # each edge once
     weights = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     mesh = coo_matrix((weights, (edges[:, 0], edges[:, 1])), shape=(len(vertices),) * 2).tocsr()
     _, piece = connected_components(mesh, directed=False)
     # each sphere's nearest surface point, and of its triangle the corner nearest it
-    spheres = np.unique(pairs[check])
+    spheres = unique_ints(pairs[check].ravel())
     near = surface.nearest(c[spheres])
     corner = faces[surface.nearest_faces(near)]
     gaps = np.linalg.norm(vertices[corner] - near[:, None, :], axis=2)
@@ -222,7 +221,7 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
     if not len(check):
         return out
     limit = CONTACT_RATIO * span[check]
-    sources = np.unique(a)
+    sources = unique_ints(a)
     reach = dijkstra(mesh, directed=False, indices=sources, limit=float(limit.max()))
     far = reach[np.searchsorted(sources, a), b] > limit
     out[check[far]] = True
@@ -241,7 +240,7 @@ def _bridge_pieces(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np
     gap = np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2) - r[:, None] - r[None, :]
     gap[labels[:, None] == labels[None, :]] = np.inf
     extra = []
-    for piece in np.unique(labels):
+    for piece in unique_ints(labels):
         members = np.flatnonzero(labels == piece)
         sub = gap[members]
         least = sub.min()

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..input.facing import unique_ints
 from .distance import CORNERS, DistanceField, grid_index, grid_number
 
 # Pairs of CORNERS indices that differ along exactly one axis: the 12 edges of a cell.
@@ -221,7 +222,7 @@ class _NudgedNearest:
     def __init__(self, field: DistanceField, requests):
         keys = np.concatenate([self._key(n, d) for n, d in requests] or [np.zeros(0, dtype=np.int64)])
         moved = np.concatenate([np.any(d != 0, axis=1) for _, d in requests] or [np.zeros(0, dtype=bool)])
-        self.keys = np.unique(keys[moved])
+        self.keys = unique_ints(keys[moved])
         numbers, code = self.keys // 27, self.keys % 27
         nudge = np.stack([code // 9, code // 3 % 3, code % 3], axis=1).astype(float) - 1.0
         # As the points were read one edge end at a time: the end, then the nudge added (the same floats).
