@@ -287,6 +287,31 @@ class DistanceField:
         """[N] exact unsigned distance of each point [N, 3] to the surface."""
         return self.surface.distance(points)
 
+    def surface_distance_bounds(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lower [N], upper [N]) bounds of ``surface_distance(points)`` [N, 3] from the field's corners, with no
+        exact query: for each corner c of the leaf holding a point p, with its exact distance d(c) and nearest
+        surface point n(c), the distance at p is at least d(c) - |p - c| and at most |p - n(c)| (the best of
+        the eight each way), widened by a billionth of the field's size for rounding; 0 and inf outside the
+        root cube. A quarter of a millisecond for 300 points, against some 2 ms of exact queries
+        (``orient.mirror_plane``)."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        lower, upper = np.zeros(len(points)), np.full(len(points), np.inf)
+        rel = (points - self.origin) / self.finest
+        inside = np.flatnonzero(np.all((rel >= 0) & (rel < 2 ** self.max_level), axis=1))
+        if not len(inside):
+            return lower, upper
+        cell = self._locate(rel[inside])
+        edge = np.left_shift(1, self.max_level - self.leaf_level[cell]).astype(np.int64)
+        corners = self.leaf_index[cell][:, None, :] + CORNERS[None, :, :] * edge[:, None, None]     # [M, 8, 3]
+        rows = self.corner_row[grid_number(corners.reshape(-1, 3), self.max_level)].reshape(-1, 8)
+        at = points[inside][:, None, :]
+        margin = 1e-9 * self.size
+        lower[inside] = np.maximum((np.abs(self.corner_depth[rows])
+                                    - np.linalg.norm(at - (self.origin + corners * self.finest), axis=2)).max(axis=1)
+                                   - margin, 0.0)
+        upper[inside] = np.linalg.norm(at - self.corner_nearest[rows], axis=2).min(axis=1) + margin
+        return lower, upper
+
     @property
     def surface_vertices(self) -> np.ndarray:
         """[V, 3] the working mesh's vertices, in this field's frame."""
@@ -323,6 +348,11 @@ class MovedField:
 
     def surface_distance(self, points: np.ndarray) -> np.ndarray:
         return self.base.surface_distance(self._in_base(points)) * self.scale
+
+    def surface_distance_bounds(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As ``DistanceField.surface_distance_bounds``, in this frame (widened again for the scaling's rounding)."""
+        lower, upper = self.base.surface_distance_bounds(self._in_base(points))
+        return lower * self.scale * (1 - 1e-9), upper * self.scale * (1 + 1e-9)
 
     @property
     def surface_vertices(self) -> np.ndarray:
