@@ -221,9 +221,14 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
     if not len(check):
         return out
     limit = CONTACT_RATIO * span[check]
-    sources = unique_ints(a)
-    reach = dijkstra(mesh, directed=False, indices=sources, limit=float(limit.max()))
-    far = reach[np.searchsorted(sources, a), b] > limit
+    # Each source's walk bounded at its own pairs' largest limit, not all at the largest of all: the walk's cost
+    # goes as the surface within the bound (the distances within it are the same either way, those beyond it
+    # are beyond every limit they are compared with).
+    far = np.zeros(len(check), dtype=bool)
+    for source in unique_ints(a):
+        mine = np.flatnonzero(a == source)
+        reach = dijkstra(mesh, directed=False, indices=int(source), limit=float(limit[mine].max()))
+        far[mine] = reach[b[mine]] > limit[mine]
     out[check[far]] = True
     return out
 
