@@ -329,7 +329,10 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
         change = prepared.frame_change(u, f)
         moved = graph.moved(change.apply(graph.centers), change.scale)
         problems[(u, f)] = _problem(moved, template)
-        cues[(u, f)] = weighted_cues(template, moved, change.apply(prepared.work_vertices))
+        # the vertices carried into the frame only for a template that weighs a cue (the biped weighs none)
+        cues[(u, f)] = (weighted_cues(template, moved, change.apply(prepared.work_vertices))
+                        if any((template.head_tail, template.head_bulk, template.head_share, template.head_crest))
+                        else 0.0)
     prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds = {}
