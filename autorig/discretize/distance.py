@@ -306,10 +306,11 @@ class DistanceField:
         rows = self.corner_row[grid_number(corners.reshape(-1, 3), self.max_level)].reshape(-1, 8)
         at = points[inside][:, None, :]
         margin = 1e-9 * self.size
-        lower[inside] = np.maximum((np.abs(self.corner_depth[rows])
-                                    - np.linalg.norm(at - (self.origin + corners * self.finest), axis=2)).max(axis=1)
-                                   - margin, 0.0)
-        upper[inside] = np.linalg.norm(at - self.corner_nearest[rows], axis=2).min(axis=1) + margin
+        away = at - (self.origin + corners * self.finest)                                          # [M, 8, 3]
+        gap = np.sqrt(np.einsum("mki,mki->mk", away, away))
+        lower[inside] = np.maximum((np.abs(self.corner_depth[rows]) - gap).max(axis=1) - margin, 0.0)
+        away = at - self.corner_nearest[rows]
+        upper[inside] = np.sqrt(np.einsum("mki,mki->mk", away, away).min(axis=1)) + margin
         return lower, upper
 
     @property
