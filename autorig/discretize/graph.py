@@ -48,14 +48,22 @@ class SphereGraph:
     shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def path(self, start: int, end: int) -> list[int]:
-        """Node indices of the shortest path from ``start`` to ``end``, both included."""
-        nodes = [end]
-        while nodes[-1] != start:
-            previous = int(self.predecessors[start, nodes[-1]])
-            if previous < 0:
-                raise ValueError(f"spheres {start} and {end} are not connected")
-            nodes.append(previous)
-        return nodes[::-1]
+        """Node indices of the shortest path from ``start`` to ``end``, both included (a new list each call).
+        Each path is walked once and kept in ``shared``: the searches ask for the same bones' paths again and
+        again, in every frame the orientation tries (a horse's detection: 77k asks)."""
+        cache = self.shared.setdefault("paths", {})
+        nodes = cache.get((start, end))
+        if nodes is None:
+            nodes = [end]
+            while nodes[-1] != start:
+                previous = int(self.predecessors[start, nodes[-1]])
+                if previous < 0:
+                    raise ValueError(f"spheres {start} and {end} are not connected")
+                nodes.append(previous)
+            nodes = cache[(start, end)] = nodes[::-1]
+        nodes = list(nodes)
+        nodes[-1] = end          # the end as given, as the walk had it
+        return nodes
 
     def moved(self, centers: np.ndarray, scale: float) -> "SphereGraph":
         """The same graph with its spheres at ``centers`` [S, 3]: a rigid motion of the old centres
