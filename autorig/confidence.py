@@ -87,8 +87,9 @@ FEET_BEHIND_SCALE = 0.02
 
 
 def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embedding, template: Template,
-                   joints: np.ndarray) -> tuple[float, dict[str, float]]:
-    """(confidence, {part: value}) for ``joints`` [J, 3] (canonical frame) embedded as ``embedding``."""
+                   joints: np.ndarray, toes: float | None = None) -> tuple[float, dict[str, float]]:
+    """(confidence, {part: value}) for ``joints`` [J, 3] (canonical frame) embedded as ``embedding``. toes:
+    ``toes_forward`` of the mesh and ``joints`` when the caller has it (None: measured here)."""
     reduced = template.reduced()
     leaves = [k for k in range(len(reduced.joints)) if k not in set(reduced.parents.tolist())]
     per_bone = embedding.cost / max(len(reduced.joints) - 1, 1)
@@ -104,6 +105,9 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
 
     solid = [j for j in range(len(template.names)) if not template.is_tip(j)]
     inside = float(np.mean(field.depth(joints[solid]) > 0))
+    vertices = field.surface_vertices
+    if toes is None:
+        toes = toes_forward(vertices, joints, template)
     if template.symmetry:
         left = np.array([i for i, _ in template.symmetry])
         right = np.array([j for _, j in template.symmetry])
@@ -121,14 +125,13 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         "symmetry": 1.0 / (1.0 + (mismatch / 0.1) ** 2),
         "search": 1.0 if embedding.optimal else 0.8,
         "sides": 0.5 ** len(crossed_pairs(joints, template)),
-        "feet": 1.0 / (1.0 + (max(-toes_forward(field.surface_vertices, joints, template), 0.0)
-                              / FEET_BEHIND_SCALE) ** 2),
+        "feet": 1.0 / (1.0 + (max(-toes, 0.0) / FEET_BEHIND_SCALE) ** 2),
     }
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
     model = ConfidenceModel.from_dict(template.confidence)
     free_per_bone = posture_free_cost_per_bone(embedding, graph, template)
-    values = features(parts, free_per_bone, joints, template, model.bone_log_sigma, field.surface_vertices)
+    values = features(parts, free_per_bone, joints, template, model.bone_log_sigma, vertices, toes)
     # The rig's info shows the fit this confidence used: without the direction term and a read-off leg's length.
     parts["fit"] = _fit_part(free_per_bone)
     return (model.probability(values) * beyond_calibration(parts, free_per_bone),
@@ -192,10 +195,11 @@ def posture_free_cost_per_bone(embedding: Embedding, graph: SphereGraph, templat
 
 
 def features(parts: dict, per_bone: float, joints: np.ndarray, template: Template,
-             bone_log_sigma: np.ndarray, vertices: np.ndarray) -> dict[str, float]:
+             bone_log_sigma: np.ndarray, vertices: np.ndarray, toes: float | None = None) -> dict[str, float]:
     """{feature: value} of ``FEATURES`` for a rig's ``joints`` [J, 3] of the mesh with ``vertices`` [V, 3]
     (both in the canonical frame) with confidence ``parts``; ``bone_log_sigma`` [J] is the spread over the
-    examples of each joint's incoming bone's log length (entry 0, the root's, unused)."""
+    examples of each joint's incoming bone's log length (entry 0, the root's, unused). toes: ``toes_forward``
+    of the mesh and joints when the caller has it (None: measured here)."""
     child = np.flatnonzero(template.parents >= 0)
     parent = template.parents[child]
     rig = joints[child] - joints[parent]
@@ -212,7 +216,7 @@ def features(parts: dict, per_bone: float, joints: np.ndarray, template: Templat
     return {"cost_per_bone": float(per_bone), "limbs": parts["limbs"], "extra": parts["extra"],
             "inside": parts["inside"], "symmetry": parts["symmetry"], "search": parts["search"],
             "proportions": float(np.mean(z ** 2)) if len(z) else 0.0, "facing": feet_facing(joints, template),
-            "feet_behind": max(-toes_forward(vertices, joints, template), 0.0),
+            "feet_behind": max(-(toes_forward(vertices, joints, template) if toes is None else toes), 0.0),
             "ends_short": ends_short(vertices, joints, template)}
 
 

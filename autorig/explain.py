@@ -36,16 +36,17 @@ def is_doubtful(confidence: float | None) -> bool:
 
 
 def confidence_reasons(field, graph, embedding, template, joints: np.ndarray, parts: dict,
-                       confidence: float) -> list[str]:
+                       confidence: float, toes: float | None = None) -> list[str]:
     """The reasons, strongest first (at most ``MOST_REASONS``), that pulled the confidence of ``joints`` [J, 3]
     (canonical frame) embedded as ``embedding`` down, with the confidence's ``parts`` as ``rig_confidence``
-    returned them; [] when nothing pulls it down."""
+    returned them; [] when nothing pulls it down. toes: ``confidence.toes_forward`` of the mesh and ``joints``
+    when the caller has it (None: measured here)."""
     if template.confidence is None:
         pulls = {name: math.log(max(value, 1e-3)) for name, value in parts.items()}
     else:
         model = ConfidenceModel.from_dict(template.confidence)
         free = posture_free_cost_per_bone(embedding, graph, template)
-        values = features(parts, free, joints, template, model.bone_log_sigma, field.surface_vertices)
+        values = features(parts, free, joints, template, model.bone_log_sigma, field.surface_vertices, toes)
         x = (model.design([values])[0] - model.mean) / model.scale
         pulls = {name: float(c) for name, c in zip(FEATURES, model.coef * x)}
         pulls["cost_per_bone"] = pulls.pop("cost_per_bone") + _factor_pull(confidence, _fit_part(free))

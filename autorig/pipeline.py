@@ -80,7 +80,7 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
     Returns a ``Rig`` in the input's own coordinates, weights for every input vertex in input order.
     """
     from .weights.attach import bone_heat, start_heat_surface
-    from .confidence import rig_confidence
+    from .confidence import rig_confidence, toes_forward
     from .explain import confidence_reasons
     from .embed.convention import convention_named, convention_shift, in_convention
     from .readoff.crown import crown_tip, heat_joints, skull_base
@@ -166,8 +166,10 @@ def rig(mesh, template="biped", options: RigOptions | None = None) -> Rig:
                    skin_with_fingers(prepared.vertices, prepared.faces, heat, template.parents, template.names,
                                      fingers, surface=surface, height=height))
     with stage("confidence"):
-        confidence, parts = rig_confidence(field, graph, embedding, template, joints)
-        reasons = confidence_reasons(field, graph, embedding, template, joints, parts, confidence)
+        # the mesh's toes against its shins: the confidence's feet part, its model's feature and the reasons'
+        toes = toes_forward(field.surface_vertices, joints, template)
+        confidence, parts = rig_confidence(field, graph, embedding, template, joints, toes)
+        reasons = confidence_reasons(field, graph, embedding, template, joints, parts, confidence, toes)
     # Helper joints (IK targets, prop sockets) ride along at their offsets and carry no weight; fingers after.
     J = len(template.names)
     names, parents, body = template.with_helpers(joints)

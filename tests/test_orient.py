@@ -211,3 +211,57 @@ def test_a_frame_whose_short_search_fell_short_is_searched_until_it_cannot_win()
     assert settle({("y", "z"): 2.5, ("z", "y"): 8.2}, {("y", "z"): 2.5, ("z", "y"): 3.0},
                   {("y", "z"): 0.0, ("z", "y"): 0.0}, None, search_long) == {("y", "z"): 2.5, ("z", "y"): 8.2}
     assert searched == []
+
+
+def test_mirror_planes_are_the_same_with_the_fields_bounds_as_with_exact_queries_alone():
+    """The field's corners bound each mirrored point's distance (``surface_distance_bounds``) and spare most
+    exact queries; the planes and their errors stay the very numbers of exact queries alone, for each axis,
+    in the field's frame and in a turned, scaled one."""
+    from autorig.discretize.distance import distance_field
+    from autorig.embed.orient import mid_plane, mirror_plane
+    from autorig.input.mesh import prepare, spread
+    shape = mannequin(pose="a")
+    prepared = prepare(shape.vertices + [0.03, 0.0, 0.0], shape.faces)    # off the box's centre a little
+    field = distance_field(*prepared.coarse())
+    turned = field.moved(np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]), np.array([0.1, 0.0, 0.2]),
+                         0.9)
+    for frame in (field, turned):
+        vertices = frame.surface_vertices
+        points = vertices[spread(vertices, 200)]
+        queried = []
+
+        def distance(p, frame=frame):
+            queried.append(len(p))
+            return frame.surface_distance(p)
+
+        for axis in range(3):
+            alone = mirror_plane(distance, vertices, axis, 200, 4, points=points)
+            alone_count, queried[:] = sum(queried), []
+            bounded = mirror_plane(distance, vertices, axis, 200, 4, points=points,
+                                   bounds=frame.surface_distance_bounds)
+            assert bounded == alone
+            assert sum(queried) <= alone_count
+            queried.clear()
+        assert mid_plane(distance, vertices, bounds=frame.surface_distance_bounds) == mid_plane(distance, vertices)
+        p = np.random.default_rng(0).uniform(vertices.min(axis=0) - 0.2, vertices.max(axis=0) + 0.2, (500, 3))
+        lower, upper = frame.surface_distance_bounds(p)
+        exact = frame.surface_distance(p)
+        assert np.all(lower <= exact) and np.all(exact <= upper)
+        inside = np.isfinite(upper)    # outside the field's cube: no bounds (0, inf)
+        assert inside.mean() > 0.5 and np.median((upper - lower)[inside]) < 0.5 * np.median(exact[inside])
+
+
+def test_median_within_bounds_is_numpys_median():
+    """``_median_within`` gives ``np.median`` of the values, asking only for those that could be a middle one."""
+    from autorig.embed.orient import _median_within
+    rng = np.random.default_rng(3)
+    for trial in range(500):
+        n = int(rng.integers(1, 40))
+        values = rng.random(n) if trial % 3 else np.round(rng.random(n), 1)     # ties too
+        slack = rng.random(n) * rng.choice([0.0, 0.05, 0.5])
+        asked = []
+        median, lower, upper = _median_within(values - slack * rng.random(n), values + slack * rng.random(n),
+                                              lambda rows: asked.extend(rows) or values[rows])
+        assert median == float(np.median(values))
+        assert np.all(lower <= values) and np.all(values <= upper)
+        assert len(asked) == len(set(asked))

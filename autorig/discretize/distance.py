@@ -13,11 +13,12 @@ positive inside ("depth"), negative outside.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field as dataclass_field
 
 import numpy as np
 
 from ..input.limits import MAX_FIELD_POINTS, check_layers, over_budget
+from ..input.facing import unique_ints
 
 # Offsets of a cell's 8 corners in units of the cell edge, in the order used for trilinear weights.
 CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int64)
@@ -41,6 +42,15 @@ class SurfaceQuery:
         self._winding_tree.init(self.vertices, self.faces)
         self._lo = self.vertices.min(axis=0)
         self._cell = max(float(np.ptp(self.vertices, axis=0).max()), 1e-300) / (2 ** MORTON_BITS - 1)
+        self._edges = None
+
+    def edges(self) -> np.ndarray:
+        """[E, 2] every edge of the surface once, (i, j) with i < j (``autorig.input.facing.mesh_edges``), worked
+        out once: the sphere graph's contacts and the tips' surface walk the same edges."""
+        if self._edges is None:
+            from ..input.facing import mesh_edges
+            self._edges = mesh_edges(len(self.vertices), self.faces)
+        return self._edges
 
     def winding(self, points: np.ndarray) -> np.ndarray:
         """[N] generalized winding number of each point."""
@@ -185,6 +195,7 @@ class DistanceField:
     corner_row: np.ndarray
     corner_face: np.ndarray | None = None
     _level_index: list | None = None
+    _spread: dict = dataclass_field(default_factory=dict, repr=False, compare=False)
 
     @property
     def finest(self) -> float:
@@ -294,10 +305,41 @@ class DistanceField:
         """[N] exact unsigned distance of each point [N, 3] to the surface."""
         return self.surface.distance(points)
 
+    def surface_distance_bounds(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lower [N], upper [N]) bounds of ``surface_distance(points)`` [N, 3] from the field's corners, with no
+        exact query: for each corner c of the leaf holding a point p, with its exact distance d(c) and nearest
+        surface point n(c), the distance at p is at least d(c) - |p - c| and at most |p - n(c)| (the best of
+        the eight each way), widened by a billionth of the field's size for rounding; 0 and inf outside the
+        root cube. A quarter of a millisecond for 300 points, against some 2 ms of exact queries
+        (``orient.mirror_plane``)."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        lower, upper = np.zeros(len(points)), np.full(len(points), np.inf)
+        rel = (points - self.origin) / self.finest
+        inside = np.flatnonzero(np.all((rel >= 0) & (rel < 2 ** self.max_level), axis=1))
+        if not len(inside):
+            return lower, upper
+        cell = self._locate(rel[inside])
+        edge = np.left_shift(1, self.max_level - self.leaf_level[cell]).astype(np.int64)
+        corners = self.leaf_index[cell][:, None, :] + CORNERS[None, :, :] * edge[:, None, None]     # [M, 8, 3]
+        rows = self.corner_row[grid_number(corners.reshape(-1, 3), self.max_level)].reshape(-1, 8)
+        at = points[inside][:, None, :]
+        margin = 1e-9 * self.size
+        away = at - (self.origin + corners * self.finest)                                          # [M, 8, 3]
+        gap = np.sqrt(np.einsum("mki,mki->mk", away, away))
+        lower[inside] = np.maximum((np.abs(self.corner_depth[rows]) - gap).max(axis=1) - margin, 0.0)
+        away = at - self.corner_nearest[rows]
+        upper[inside] = np.sqrt(np.einsum("mki,mki->mk", away, away).min(axis=1)) + margin
+        return lower, upper
+
     @property
     def surface_vertices(self) -> np.ndarray:
         """[V, 3] the working mesh's vertices, in this field's frame."""
         return self.surface.vertices
+
+    def spread_vertices(self, count: int) -> np.ndarray:
+        """``surface_vertices[spread(surface_vertices, count)]`` (``autorig.input.mesh.spread``), worked out once
+        per count: the refinement's and the confidence's mirror-pair weights sample the same points."""
+        return _spread_of(self, count)
 
 
 @dataclass
@@ -309,6 +351,8 @@ class MovedField:
     rotation: np.ndarray
     offset: np.ndarray
     scale: float
+    _vertices: np.ndarray | None = dataclass_field(default=None, repr=False, compare=False)
+    _spread: dict = dataclass_field(default_factory=dict, repr=False, compare=False)
 
     def depth(self, points: np.ndarray) -> np.ndarray:
         return self.depth_and_gradient(points)[0]
@@ -324,14 +368,35 @@ class MovedField:
     def surface_distance(self, points: np.ndarray) -> np.ndarray:
         return self.base.surface_distance(self._in_base(points)) * self.scale
 
+    def surface_distance_bounds(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As ``DistanceField.surface_distance_bounds``, in this frame (widened again for the scaling's rounding)."""
+        lower, upper = self.base.surface_distance_bounds(self._in_base(points))
+        return lower * self.scale * (1 - 1e-9), upper * self.scale * (1 + 1e-9)
+
     @property
     def surface_vertices(self) -> np.ndarray:
-        """[V, 3] the working mesh's vertices, in this frame."""
-        return self.scale * self.base.surface_vertices @ self.rotation.T + self.offset
+        """[V, 3] the working mesh's vertices, in this frame (worked out once: not to be written to, like the
+        unmoved field's)."""
+        if self._vertices is None:
+            self._vertices = self.scale * self.base.surface_vertices @ self.rotation.T + self.offset
+        return self._vertices
+
+    def spread_vertices(self, count: int) -> np.ndarray:
+        """As ``DistanceField.spread_vertices``, in this frame."""
+        return _spread_of(self, count)
 
     def _in_base(self, points: np.ndarray) -> np.ndarray:
         """Points [N, 3] of this frame in the frame the field was built in."""
         return ((np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.offset) / self.scale) @ self.rotation
+
+
+def _spread_of(field, count: int) -> np.ndarray:
+    """``field.surface_vertices`` at ``spread(field.surface_vertices, count)``, kept in ``field._spread``."""
+    if count not in field._spread:
+        from ..input.mesh import spread
+        vertices = np.asarray(field.surface_vertices, dtype=np.float64)
+        field._spread[count] = vertices[spread(vertices, count)]
+    return field._spread[count]
 
 
 def _key(index: np.ndarray) -> np.ndarray:
@@ -385,7 +450,7 @@ def distance_field(vertices: np.ndarray, faces: np.ndarray, *, tolerance: float 
         nonlocal known_depth
         numbers = grid_number(corner_index, max_level)
         rows = row_of[numbers]
-        new = np.unique(numbers[rows < 0])
+        new = unique_ints(numbers[rows < 0])
         if len(new):
             new_index = grid_index(new, max_level)
             points = origin + new_index * finest

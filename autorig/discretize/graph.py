@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..input.facing import unique_ints
 from .distance import DistanceField
 from .medial import Spheres
 TIE = 1e-9   # gaps this close (of the largest radius) are equal: ``_bridge_pieces`` bridges them all
@@ -47,14 +48,22 @@ class SphereGraph:
     shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def path(self, start: int, end: int) -> list[int]:
-        """Node indices of the shortest path from ``start`` to ``end``, both included."""
-        nodes = [end]
-        while nodes[-1] != start:
-            previous = int(self.predecessors[start, nodes[-1]])
-            if previous < 0:
-                raise ValueError(f"spheres {start} and {end} are not connected")
-            nodes.append(previous)
-        return nodes[::-1]
+        """Node indices of the shortest path from ``start`` to ``end``, both included (a new list each call).
+        Each path is walked once and kept in ``shared``: the searches ask for the same bones' paths again and
+        again, in every frame the orientation tries (a horse's detection: 77k asks)."""
+        cache = self.shared.setdefault("paths", {})
+        nodes = cache.get((start, end))
+        if nodes is None:
+            nodes = [end]
+            while nodes[-1] != start:
+                previous = int(self.predecessors[start, nodes[-1]])
+                if previous < 0:
+                    raise ValueError(f"spheres {start} and {end} are not connected")
+                nodes.append(previous)
+            nodes = cache[(start, end)] = nodes[::-1]
+        nodes = list(nodes)
+        nodes[-1] = end          # the end as given, as the walk had it
+        return nodes
 
     def moved(self, centers: np.ndarray, scale: float) -> "SphereGraph":
         """The same graph with its spheres at ``centers`` [S, 3]: a rigid motion of the old centres
@@ -203,14 +212,12 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
         return out
     surface = field.surface
     vertices, faces = surface.vertices, surface.faces
-    edges = np.sort(np.vstack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    key = np.unique(edges[:, 0] * np.int64(len(vertices)) + edges[:, 1])     # each edge once
-    edges = np.c_[key // len(vertices), key % len(vertices)]
+    edges = surface.edges()     # each edge once
     weights = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     mesh = coo_matrix((weights, (edges[:, 0], edges[:, 1])), shape=(len(vertices),) * 2).tocsr()
     _, piece = connected_components(mesh, directed=False)
     # each sphere's nearest surface point, and of its triangle the corner nearest it
-    spheres = np.unique(pairs[check])
+    spheres = unique_ints(pairs[check].ravel())
     near = surface.nearest(c[spheres])
     corner = faces[surface.nearest_faces(near)]
     gaps = np.linalg.norm(vertices[corner] - near[:, None, :], axis=2)
@@ -222,9 +229,14 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
     if not len(check):
         return out
     limit = CONTACT_RATIO * span[check]
-    sources = np.unique(a)
-    reach = dijkstra(mesh, directed=False, indices=sources, limit=float(limit.max()))
-    far = reach[np.searchsorted(sources, a), b] > limit
+    # Each source's walk bounded at its own pairs' largest limit, not all at the largest of all: the walk's cost
+    # goes as the surface within the bound (the distances within it are the same either way, those beyond it
+    # are beyond every limit they are compared with).
+    far = np.zeros(len(check), dtype=bool)
+    for source in unique_ints(a):
+        mine = np.flatnonzero(a == source)
+        reach = dijkstra(mesh, directed=False, indices=int(source), limit=float(limit[mine].max()))
+        far[mine] = reach[b[mine]] > limit[mine]
     out[check[far]] = True
     return out
 
@@ -241,7 +253,7 @@ def _bridge_pieces(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np
     gap = np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2) - r[:, None] - r[None, :]
     gap[labels[:, None] == labels[None, :]] = np.inf
     extra = []
-    for piece in np.unique(labels):
+    for piece in unique_ints(labels):
         members = np.flatnonzero(labels == piece)
         sub = gap[members]
         least = sub.min()

@@ -100,12 +100,12 @@ def pair_symmetry(field, joints: np.ndarray, left: np.ndarray, right: np.ndarray
     (``spread`` samples of the mesh's vertices) within ``SYMMETRY_REACH`` of either joint, mirrored across
     x = 0, their mean distance to the surface d (each weighted by a bump falling smoothly to 0 at the reach), and 1 / (1 + (d / SYMMETRY_SCALE)^2); 1 for a pair with no
     surface point that near."""
-    from ..input.mesh import spread
     out = np.ones(len(left))
-    vertices = np.asarray(field.surface_vertices, dtype=np.float64)
-    if not len(left) or not len(vertices):
+    if not len(left):
         return out
-    points = vertices[spread(vertices, SYMMETRY_SAMPLES)]
+    points = field.spread_vertices(SYMMETRY_SAMPLES)
+    if not len(points):
+        return out
     # Each point counts by a smooth bump of its distance to the nearer joint of the pair, (1 - (d / reach)^2)^2,
     # not all or nothing at the reach: a joint that moves a little then moves the weight a little (a hard edge
     # moved a 0 A.D. Boudicca's wrist 0.7 % of the height under 1e-6 noise).

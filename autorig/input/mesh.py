@@ -333,7 +333,7 @@ class PreparedMesh:
         # Frames differ by signed axis permutations, which map the working mesh's bounding box onto the new
         # one exactly: its 8 corners give the new box without rotating every vertex (orientation detection
         # asks for 8 frames: 0.45 s on a 200k-face scan).
-        lo, hi = self.work_vertices.min(axis=0), self.work_vertices.max(axis=0)
+        lo, hi = column_min(self.work_vertices), column_max(self.work_vertices)
         corners = np.where(np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], bool), hi, lo)
         rotated = self.from_canonical(corners) @ rotation.T
         lo, hi = rotated.min(axis=0), rotated.max(axis=0)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..input.facing import edge_graph, face_cross
+from ..input.facing import edge_graph, face_cross, unique_ints
 
 CAP = 0.03    # the cap's depth, as a fraction of the height (the canonical frame is one unit tall)
 NEAR = 0.02   # the source's reach: vertices this much farther from the core than the nearest one
@@ -35,7 +35,7 @@ MIRROR = np.array([-1.0, 1.0, 1.0])
 class Surface:
     """A triangle surface's edge graph and reach from a core point, for reading tips off it."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, core: np.ndarray):
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, core: np.ndarray, edges: np.ndarray | None = None):
         from scipy.sparse import bmat, csr_matrix
         from scipy.sparse.csgraph import connected_components, dijkstra
         from scipy.spatial import cKDTree
@@ -43,7 +43,7 @@ class Surface:
         self.vertices = np.asarray(vertices, float)
         faces = np.asarray(faces, np.int64)
         V = len(self.vertices)
-        self.graph = edge_graph(self.vertices, faces)
+        self.graph = edge_graph(self.vertices, faces, edges)
         count, piece = connected_components(self.graph, directed=False)
         self.body = _body(self.vertices, faces, count, piece)
         # The virtual source (node V) is joined to the surface nearest the core: in each piece of the body, to
@@ -142,7 +142,7 @@ def core_of(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     volume = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
     total = volume.sum()
     if abs(total) <= 1e-12:
-        return vertices[np.unique(faces)].mean(axis=0)
+        return vertices[unique_ints(faces.ravel())].mean(axis=0)
     return ((a + b + c) / 4.0 * volume[:, None]).sum(axis=0) / total
 
 
@@ -150,8 +150,8 @@ def surface_for(field) -> Surface:
     """The ``Surface`` of the mesh a distance field was built on (its working copy), in the field's frame,
     with its reach measured from the volume's centroid."""
     vertices = field.surface_vertices
-    faces = getattr(field, "base", field).surface.faces
-    return Surface(vertices, faces, core_of(vertices, faces))
+    surface = getattr(field, "base", field).surface
+    return Surface(vertices, surface.faces, core_of(vertices, surface.faces), surface.edges())
 
 
 def along_the_foot(joints: np.ndarray, template) -> np.ndarray:

@@ -28,6 +28,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from ..input.facing import unique_ints
 from ..input.budget import HEAT_BYTES, checkpoint, over_memory
 from .pieces import follow_body
 
@@ -188,7 +189,7 @@ def _coarse_copy(V, F):
     votes = sp.coo_matrix((np.ones(int(on.sum())), (dense_part[on], landed[on]))).tocsr()
     own = np.where(on, np.asarray(votes.argmax(axis=1)).ravel()[dense_part], landed)   # [U] the copy's part
     stray = np.flatnonzero(landed != own)
-    for part in np.unique(own[stray]):
+    for part in unique_ints(own[stray]):
         at = stray[own[stray] == part]
         faces = np.flatnonzero(coarse_part[coarse_F[:, 0]] == part)
         _, k, closest[at] = igl.point_mesh_squared_distance(V[at], coarse_V, coarse_F[faces])

@@ -26,6 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..input.facing import unique_ints
+
 SMALL = 0.1      # pieces no larger than this fraction of the height move rigidly
 LAYER = 0.04     # a larger piece whose median distance to the body is below this fraction of the height is
                  # a layer over it (clothes, hair) and takes the body's weights; farther, it keeps its own
@@ -50,7 +52,7 @@ def follow_body(V, F, W, height: float | None = None, bones=None) -> np.ndarray:
     count, label = connected_components(adj, directed=False)
     on_face = np.zeros(n, bool)
     on_face[F.ravel()] = True
-    parts = np.unique(label[on_face])
+    parts = unique_ints(label[on_face])
     if len(parts) < 2:
         return W
     height = float(height) if height else float(np.ptp(V[on_face], axis=0).max())
