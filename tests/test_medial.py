@@ -42,7 +42,7 @@ def test_the_nearest_point_of_a_triangle_is_libigls():
 def test_the_surface_query_names_the_triangle_of_each_nearest_point():
     """The field keeps the triangle of each corner's nearest point (``SurfaceQuery.closest_on``): the nearest
     point lies on it, and the depths and points are those ``closest`` gives."""
-    from autorig.discretize.distance import SurfaceQuery
+    from autorig.discretize.surface import SurfaceQuery
     from autorig.samples import mannequin
     sample = mannequin("a", resolution=32)
     surface = SurfaceQuery(sample.vertices, sample.faces)

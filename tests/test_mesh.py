@@ -228,7 +228,7 @@ def test_open_pieces_are_turned_outward_by_their_own_winding_number(reverse):
     assert kept_orientation(prepared, F[1]).all() != reverse
     assert kept_orientation(prepared, F[2]).all() != reverse
     assert kept_orientation(prepared, F[3]).all()                        # a sheet has no inside to go by
-    from autorig.discretize.distance import SurfaceQuery
+    from autorig.discretize.surface import SurfaceQuery
     inside_hand = prepared.to_canonical(np.array([[0.4, 0.83, 0.0]]))
     assert SurfaceQuery(prepared.work_vertices, prepared.work_faces).winding(inside_hand)[0] > 0.5
 

@@ -141,7 +141,7 @@ def test_a_shield_held_to_one_side_does_not_move_the_rig():
     # and right joints across the body's, and keeps its trunk on it.
     import trimesh
 
-    from autorig.discretize.distance import SurfaceQuery
+    from autorig.discretize.surface import SurfaceQuery
     from autorig.embed.orient import mid_plane
     sample = mannequin(pose="a", resolution=64)
     height = float(np.ptp(sample.vertices[:, 1]))

@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from autorig.discretize.distance import SurfaceQuery
+from autorig.discretize.surface import SurfaceQuery
 from autorig.errors import TemplateError
 from autorig.input.mesh import prepare
 from autorig.readoff.rump import measure_rump, read_rump

@@ -1,8 +1,8 @@
-"""The discretization's exact surface queries (autorig.discretize.distance.SurfaceQuery)."""
+"""The discretization's exact surface queries (autorig.discretize.surface.SurfaceQuery)."""
 import numpy as np
 
-from autorig.discretize import distance
-from autorig.discretize.distance import SurfaceQuery, _spread_bits
+from autorig.discretize import surface as surface_module
+from autorig.discretize.surface import SurfaceQuery, _spread_bits
 
 
 def test_queries_sent_along_the_morton_curve_answer_each_point_as_alone():
@@ -14,7 +14,7 @@ def test_queries_sent_along_the_morton_curve_answer_each_point_as_alone():
     rng = np.random.default_rng(0)
     lo, hi = sample.vertices.min(axis=0), sample.vertices.max(axis=0)
     points = rng.uniform(lo - 0.2 * (hi - lo), hi + 0.2 * (hi - lo), (3000, 3))   # some outside the box
-    assert len(points) >= distance.MORTON_MIN
+    assert len(points) >= surface_module.MORTON_MIN
     sq, _, nearest = surface._tree.squared_distance(surface.vertices, surface.faces, points)
     assert np.array_equal(surface.distance(points), np.sqrt(sq))
     assert np.array_equal(surface.nearest(points), nearest)

@@ -51,7 +51,7 @@ class Example:
         """The mesh in the template frame (``autorig.input.mesh.PreparedMesh``), centred on the body's mid-plane as
         a rig centres it (``orient.centre_on_mid_plane``), made once."""
         if "_prepared" not in self.__dict__:
-            from ..discretize.distance import SurfaceQuery
+            from ..discretize.surface import SurfaceQuery
             from ..input.mesh import check_mesh, prepare
             from ..embed.orient import mid_plane
             V, F = check_mesh(self.vertices, self.faces, self.name)

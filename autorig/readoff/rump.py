@@ -95,7 +95,7 @@ def measured_examples(examples, per_example: np.ndarray, template, joint: str, m
     """(truth [J, 3], measurement) of each of ``examples`` (``learn.examples.Example``, their joints in the
     template frame ``per_example`` [N, J, 3]) that maps ``joint`` and whose mesh ``measure(depth, vertices,
     joints, template)`` measures (not None), the depth being the working mesh's signed distance."""
-    from ..discretize.distance import SurfaceQuery
+    from ..discretize.surface import SurfaceQuery
     for example, truth in zip(examples, per_example):
         if joint not in example.key_of:
             continue
