@@ -388,22 +388,18 @@ class _Ties:
         read = np.repeat(np.arange(len(read_keys)), count)
         face = candidates[start[read] + np.arange(len(read)) - np.repeat(np.cumsum(count) - count, count)] % n_faces
         read, face = read[face != own[read]], face[face != own[read]]
-        corners = vertices[triangles[face]]
-        # A triangle is no nearer than its plane: most candidates' planes are farther than the tie reaches.
-        normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            plane = np.abs(np.einsum("ij,ij->i", point[read] - corners[:, 0], normal)) / np.linalg.norm(normal, axis=1)
-        reach = np.linalg.norm(point[read] - nearest[read], axis=1) + TIE
-        maybe = ~(plane >= reach)            # a degenerate triangle (no plane) is measured
-        read, face, corners = read[maybe], face[maybe], corners[maybe]
-        foot = _closest_on_triangles(point[read], corners[:, 0], corners[:, 1], corners[:, 2])
-        margin = np.linalg.norm(point[read] - foot, axis=1) - np.linalg.norm(point[read] - nearest[read], axis=1)
-        # Tied, and another part: a triangle whose nearest point is the read's own (a neighbour of its triangle
-        # at the edge or corner the nearest point lies on) turns no edge another way.
-        near = (margin < TIE) & (np.linalg.norm(foot - nearest[read], axis=1) > TIE)
-        # Each read's nearly tied parts, by the read's key (sorted: read is): the foot on each and its weight.
-        self.key, self.foot = read_keys[read[near]], foot[near]
-        self.weight = _tie_weight(np.maximum(margin[near], 0.0))
+        # Measured a chunk of candidates at a time (each row on its own: the same as all at once, in less memory);
+        # each read's nearly tied parts come out by the read's key (sorted: read is), with the foot on each.
+        keys, feet, margins = [], [], []
+        for lo in range(0, len(read), TIE_CHUNK):
+            k, f, m = _tied_parts(vertices, triangles, point, nearest, read[lo:lo + TIE_CHUNK],
+                                  face[lo:lo + TIE_CHUNK])
+            keys.append(read_keys[k])
+            feet.append(f)
+            margins.append(m)
+        self.key = np.concatenate(keys) if keys else np.zeros(0, dtype=np.int64)
+        self.foot = np.concatenate(feet) if feet else np.zeros((0, 3))
+        self.weight = _tie_weight(np.maximum(np.concatenate(margins) if margins else np.zeros(0), 0.0))
 
     def crossings(self, a, b, reads: tuple[_Reads, _Reads], da, db, cos_turn, edges):
         """(points, radii, weights) of the crossings of the edges ``edges`` (indices) that only a reading of
@@ -440,6 +436,28 @@ class _Ties:
         order = np.lexsort((p[:, 2], p[:, 1], p[:, 0], -r, -weight, pair))
         first = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]
         return p[first], r[first], weight[first]
+
+
+TIE_CHUNK = 1 << 16   # candidate (read, triangle) pairs measured at once by ``_Ties``
+
+
+def _tied_parts(vertices, triangles, point, nearest, read, face):
+    """(read rows [T], feet [T, 3], margins [T]) of the candidates (``read`` [N] rows of ``point`` and
+    ``nearest``, ``face`` [N] triangles) nearly tied with their read's nearest point (``_Ties``)."""
+    corners = vertices[triangles[face]]
+    # A triangle is no nearer than its plane: most candidates' planes are farther than the tie reaches.
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        plane = np.abs(np.einsum("ij,ij->i", point[read] - corners[:, 0], normal)) / np.linalg.norm(normal, axis=1)
+    reach = np.linalg.norm(point[read] - nearest[read], axis=1) + TIE
+    maybe = ~(plane >= reach)            # a degenerate triangle (no plane) is measured
+    read, corners = read[maybe], corners[maybe]
+    foot = _closest_on_triangles(point[read], corners[:, 0], corners[:, 1], corners[:, 2])
+    margin = np.linalg.norm(point[read] - foot, axis=1) - np.linalg.norm(point[read] - nearest[read], axis=1)
+    # Tied, and another part: a triangle whose nearest point is the read's own (a neighbour of its triangle at
+    # the edge or corner the nearest point lies on) turns no edge another way.
+    near = (margin < TIE) & (np.linalg.norm(foot - nearest[read], axis=1) > TIE)
+    return read[near], foot[near], margin[near]
 
 
 def _closest_on_triangles(p, a, b, c):
