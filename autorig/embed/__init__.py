@@ -4,7 +4,7 @@ from __future__ import annotations
 from ..discretize.graph import SphereGraph
 from ..template import Template
 from .penalties import WEIGHTS, build_problem
-from .search import MAX_EXPANSIONS, Embedding, search
+from .search import MAX_EXPANSIONS, Embedding, _paths, search
 
 __all__ = ["embed", "Embedding", "WEIGHTS", "swap_mirrored"]
 
@@ -55,7 +55,7 @@ def swap_mirrored(graph: SphereGraph, template: Template, embedding: Embedding, 
                 moved.update((c, m))
     if not moved:
         return embedding
-    paths = [[int(spheres[0])]] + [graph.path(int(spheres[parents[k]]), int(spheres[k])) for k in range(1, len(order))]
+    paths = _paths(problem, tuple(int(s) for s in spheres))
     cost = float(sum(problem.weights[p] * v for p, v in embedding_terms(problem, spheres).items()))
     return Embedding(spheres=spheres, paths=paths, cost=cost, expanded=embedding.expanded,
                      optimal=embedding.optimal, bound=min(float(embedding.bound), cost),

@@ -24,14 +24,14 @@ class Embedding:
     """spheres [K] sphere of each reduced joint; paths [K] sphere paths of each reduced bone, parent to joint
     (the root's is just its sphere); cost the total penalty; expanded number of states taken off the queue;
     bound: no embedding costs less (the cost itself when optimal; the search frontier's when out of budget);
-    swapped: the reduced joints that ``autorig.embed.uncrossed`` gave their mirror image's sphere (empty: none)."""
+    swapped: the reduced joints that ``autorig.embed.swap_mirrored`` gave their mirror image's sphere (empty: none)."""
     spheres: np.ndarray
     paths: list[list[int]]
     cost: float
     expanded: int
     optimal: bool = True
     bound: float | None = None
-    swapped: tuple[int, ...] = ()     # reduced joints given their mirror image's sphere (``embed.uncrossed``)
+    swapped: tuple[int, ...] = ()     # reduced joints given their mirror image's sphere (``embed.swap_mirrored``)
 
     def __post_init__(self):
         if self.bound is None:
