@@ -46,14 +46,13 @@ import numpy as np
 
 from ..input.mesh import spread
 from .ends import FEET_BAND
-from .search import MAX_EXPANSIONS
 
 AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too
 CONVENTION_BONUS = 0.05   # penalty per axis a frame off +y up / +z front must beat the convention by
 DETECTION_EXPANSIONS = 200  # A* budget per fully searched frame (its greedy embedding is used beyond it)
 FULL_SEARCHES = 3            # frames searched after the greedy ranking
-DECISION_EXPANSIONS = MAX_EXPANSIONS  # A* budget for a frame that could still win (``settle``)
+DECISION_EXPANSIONS = 6_000  # A* budget for a frame that could still win (``settle``)
 TIP_BAND = 0.05   # the part of the shape's length at each end whose height is its tip's
 CREST_BAND = 0.05  # the part of the shape's height at its top whose place along z is its crest's
 MID_PLANE_RANGE = 0.3  # the mid-plane is looked for this fraction of the box's width either side of its centre
