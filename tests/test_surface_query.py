@@ -45,7 +45,7 @@ def _forks() -> bool:
     return sys.platform.startswith("linux") and len(os.sched_getaffinity(0)) >= 2
 
 
-def test_batches_shared_with_the_partner_answer_each_point_as_alone():
+def test_batches_shared_with_the_partner_answer_each_point_as_alone(monkeypatch):
     """Inside ``sharing()`` a large batch is answered half by a forked child: the same answers, to the bit, as
     this process gives alone, in the caller's order; the child is gone after the block, and a child that died
     leaves the batch to this process, answered the same."""
@@ -58,6 +58,7 @@ def test_batches_shared_with_the_partner_answer_each_point_as_alone():
     from autorig.samples import mannequin
     if not _forks():
         pytest.skip("forks on Linux with 2 CPUs only")
+    monkeypatch.setattr(partner_module, "_idle_core", lambda: True)    # however busy the machine is
     sample = mannequin("a", resolution=40)
     surface = SurfaceQuery(sample.vertices, sample.faces)
     rng = np.random.default_rng(1)
@@ -82,11 +83,13 @@ def test_the_field_is_the_same_with_the_partner_and_without_the_centres_its_corn
     corners already keep as leaves, has the leaves and values of the field that asks for every centre in this
     process alone: the same to the bit, and no point evaluated that the full field did not evaluate too."""
     from autorig.discretize import distance
+    from autorig.discretize import partner as partner_module
     from autorig.input.mesh import prepare
     from autorig.samples import mannequin
     from autorig.weights import ahead
     sample = mannequin("a", resolution=48)
     V, F = prepare(sample.vertices, sample.faces).coarse()
+    monkeypatch.setattr(partner_module, "_idle_core", lambda: True)    # shared wherever the machine can fork
     built = {}
     for name, enabled, skip in (("shared", True, True), ("alone", False, True), ("every centre", False, False)):
         monkeypatch.setattr(ahead, "ENABLED", enabled)
@@ -105,3 +108,25 @@ def test_the_field_is_the_same_with_the_partner_and_without_the_centres_its_corn
         assert np.array_equal(field.corner_depth[mine], full.corner_depth[theirs])
         assert np.array_equal(field.corner_nearest[mine], full.corner_nearest[theirs])
         assert np.array_equal(field.corner_face[mine], full.corner_face[theirs])
+
+
+def test_no_partner_while_the_cores_are_busy_or_forks_are_off(monkeypatch):
+    """The partner is only started while the load average leaves a core to spare and ``ahead.ENABLED`` is on
+    (``autorig batch``'s workers turn it off); without it every batch is answered here, the same."""
+    import os
+
+    from autorig.discretize import partner as partner_module
+    from autorig.samples import mannequin
+    from autorig.weights import ahead
+    surface = SurfaceQuery(*(lambda s: (s.vertices, s.faces))(mannequin("a", resolution=24)))
+    before = _children()
+    cpus = len(os.sched_getaffinity(0))
+    monkeypatch.setattr(partner_module.os, "getloadavg", lambda: (float(cpus), 0.0, 0.0))
+    assert not partner_module._idle_core()
+    with surface.sharing() as busy:
+        assert not busy.alive and _children() == before
+    monkeypatch.setattr(partner_module.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    assert partner_module._idle_core() == (cpus >= 2)
+    monkeypatch.setattr(ahead, "ENABLED", False)
+    with surface.sharing() as off:
+        assert not off.alive and _children() == before
