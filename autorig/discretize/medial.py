@@ -373,8 +373,9 @@ class _Ties:
         idx = grid_index(corners_listed, field.max_level)
         plain = corners_listed[~np.any(idx == 2 ** (field.max_level - 1), axis=1)]
         rows = field.corner_row[plain]
-        moved = nudged.keys // 27
-        moved = np.flatnonzero(np.isin(moved, corners_listed))
+        moved = nudged.keys // 27     # which of them are listed, by a binary search (corners_listed is sorted)
+        at = np.minimum(np.searchsorted(corners_listed, moved), max(len(corners_listed) - 1, 0))
+        moved = np.flatnonzero(corners_listed[at] == moved) if len(corners_listed) else np.zeros(0, dtype=np.int64)
         read_keys = np.concatenate([plain * 27 + _UNMOVED, nudged.keys[moved]])
         order = np.argsort(read_keys, kind="stable")
         read_keys = read_keys[order]
@@ -390,10 +391,9 @@ class _Ties:
         read, face = read[face != own[read]], face[face != own[read]]
         # Measured a chunk of candidates at a time (each row on its own: the same as all at once, in less memory);
         # each read's nearly tied parts come out by the read's key (sorted: read is), with the foot on each.
-        # Most candidates lie in planes farther than the tie reaches: a first look through each triangle's plane
-        # worked out once (unit normal, offset), a billionth of the field wider than ``_tied_parts``' own look,
-        # leaves it a third of them, the rest certainly out of reach (armadillo, 20k faces: 166k -> 56k).
-        # A sliver's plane is too uncertain for that (its normal off by more than the billionth): left to it.
+        # Most candidates' planes are out of the tie's reach: a first look through each triangle's plane, worked
+        # out once, a billionth of the field wider than ``_tied_parts``' own, leaves it a third (armadillo 20k:
+        # 166k -> 56k), slivers (their normals too uncertain for the billionth) to it.
         side, other = (vertices[triangles[:, k]] - vertices[triangles[:, 0]] for k in (1, 2))
         normal = np.cross(side, other)
         length = np.linalg.norm(normal, axis=1)
