@@ -395,11 +395,11 @@ class _Ties:
         # out once, a billionth of the field wider than ``_tied_parts``' own, leaves it a third (armadillo 20k:
         # 166k -> 56k), slivers (their normals too uncertain for the billionth) to it.
         side, other = (vertices[triangles[:, k]] - vertices[triangles[:, 0]] for k in (1, 2))
-        normal = np.cross(side, other)
-        length = np.linalg.norm(normal, axis=1)
+        cross = np.cross(side, other)        # as ``_tied_parts`` works it out per candidate: the same floats
+        length = np.linalg.norm(cross, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            normal /= np.where(length > 1e-6 * np.linalg.norm(side, axis=1) * np.linalg.norm(other, axis=1),
-                               length, np.nan)[:, None]
+            normal = cross / np.where(length > 1e-6 * np.linalg.norm(side, axis=1) * np.linalg.norm(other, axis=1),
+                                      length, np.nan)[:, None]
         offset = np.einsum("ij,ij->i", normal, vertices[triangles[:, 0]])
         reach = np.linalg.norm(point - nearest, axis=1) + TIE + 1e-9 * field.size
         keys, feet, margins = [], [], []
@@ -407,7 +407,7 @@ class _Ties:
             rows, faces = read[lo:lo + TIE_CHUNK], face[lo:lo + TIE_CHUNK]
             plane = np.abs(np.einsum("ij,ij->i", normal[faces], point[rows]) - offset[faces])
             maybe = ~(plane >= reach[rows])            # NaN (a sliver): maybe
-            k, f, m = _tied_parts(vertices, triangles, point, nearest, rows[maybe], faces[maybe])
+            k, f, m = _tied_parts(vertices, triangles, point, nearest, rows[maybe], faces[maybe], cross, length)
             keys.append(read_keys[k])
             feet.append(f)
             margins.append(m)
@@ -455,22 +455,22 @@ class _Ties:
 TIE_CHUNK = 1 << 16   # candidate (read, triangle) pairs measured at once by ``_Ties``
 
 
-def _tied_parts(vertices, triangles, point, nearest, read, face):
+def _tied_parts(vertices, triangles, point, nearest, read, face, cross, length):
     """(read rows [T], feet [T, 3], margins [T]) of the candidates (``read`` [N] rows of ``point`` and
-    ``nearest``, ``face`` [N] triangles) nearly tied with their read's nearest point (``_Ties``)."""
-    corners = vertices[triangles[face]]
+    ``nearest``, ``face`` [N] triangles) nearly tied with their read's nearest point (``_Ties``); ``cross`` [F, 3]
+    and ``length`` [F]: each triangle's (b - a) x (c - a) and its norm."""
     # A triangle is no nearer than its plane: most candidates' planes are farther than the tie reaches.
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    at, own = point[read], nearest[read]
     with np.errstate(divide="ignore", invalid="ignore"):
-        plane = np.abs(np.einsum("ij,ij->i", point[read] - corners[:, 0], normal)) / np.linalg.norm(normal, axis=1)
-    reach = np.linalg.norm(point[read] - nearest[read], axis=1) + TIE
-    maybe = ~(plane >= reach)            # a degenerate triangle (no plane) is measured
-    read, corners = read[maybe], corners[maybe]
-    foot = _closest_on_triangles(point[read], corners[:, 0], corners[:, 1], corners[:, 2])
-    margin = np.linalg.norm(point[read] - foot, axis=1) - np.linalg.norm(point[read] - nearest[read], axis=1)
+        plane = np.abs(np.einsum("ij,ij->i", at - vertices[triangles[face, 0]], cross[face])) / length[face]
+    depth = np.linalg.norm(at - own, axis=1)
+    maybe = ~(plane >= depth + TIE)      # a degenerate triangle (no plane) is measured
+    read, at, own, depth, corners = read[maybe], at[maybe], own[maybe], depth[maybe], vertices[triangles[face[maybe]]]
+    foot = _closest_on_triangles(at, corners[:, 0], corners[:, 1], corners[:, 2])
+    margin = np.linalg.norm(at - foot, axis=1) - depth
     # Tied, and another part: a triangle whose nearest point is the read's own (a neighbour of its triangle at
     # the edge or corner the nearest point lies on) turns no edge another way.
-    near = (margin < TIE) & (np.linalg.norm(foot - nearest[read], axis=1) > TIE)
+    near = (margin < TIE) & (np.linalg.norm(foot - own, axis=1) > TIE)
     return read[near], foot[near], margin[near]
 
 
