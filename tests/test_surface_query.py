@@ -130,3 +130,26 @@ def test_no_partner_while_the_cores_are_busy_or_forks_are_off(monkeypatch):
     monkeypatch.setattr(ahead, "ENABLED", False)
     with surface.sharing() as off:
         assert not off.alive and _children() == before
+
+
+def test_a_fork_that_fails_leaves_every_batch_here(monkeypatch):
+    """No process to be had (a limit on processes or memory): no partner, no open pipes left, the same answers."""
+    import os
+
+    from autorig.discretize import partner as partner_module
+    from autorig.samples import mannequin
+    sample = mannequin("a", resolution=24)
+    surface = SurfaceQuery(sample.vertices, sample.faces)
+    points = np.random.default_rng(2).uniform(-0.5, 0.5, (partner_module.PARTNER_MIN + 5, 3)) + [0, 0.9, 0]
+    alone = surface.distance(points)
+    monkeypatch.setattr(partner_module, "_idle_core", lambda: True)
+
+    def no_fork():
+        raise BlockingIOError("Resource temporarily unavailable")
+    monkeypatch.setattr(partner_module.os, "fork", no_fork)
+    fds = len(os.listdir("/proc/self/fd")) if os.path.isdir("/proc/self/fd") else None
+    with surface.sharing() as none:
+        assert not none.alive
+        assert np.array_equal(surface.distance(points), alone)
+    if fds is not None:
+        assert len(os.listdir("/proc/self/fd")) == fds

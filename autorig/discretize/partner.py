@@ -51,11 +51,16 @@ class Partner:
             return
         ask_read, ask_write = os.pipe()
         answer_read, answer_write = os.pipe()
-        with warnings.catch_warnings():
-            # As in ``autorig.weights.ahead``: the child runs only libigl and numpy on its own arrays and
-            # leaves with os._exit, never touching a lock another thread might have held at the fork.
-            warnings.simplefilter("ignore", DeprecationWarning)
-            pid = os.fork()
+        try:
+            with warnings.catch_warnings():
+                # As in ``autorig.weights.ahead``: the child runs only libigl and numpy on its own arrays and
+                # leaves with os._exit, never touching a lock another thread might have held at the fork.
+                warnings.simplefilter("ignore", DeprecationWarning)
+                pid = os.fork()
+        except OSError:       # no process to be had (a limit on processes or memory): all answered here
+            for fd in (ask_read, ask_write, answer_read, answer_write):
+                os.close(fd)
+            return
         if pid == 0:   # the child: answer until told to stop (or the parent is gone), then leave at once
             code = 1
             try:
