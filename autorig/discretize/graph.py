@@ -232,10 +232,13 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
     # Each source's walk bounded at its own pairs' largest limit, not all at the largest of all: the walk's cost
     # goes as the surface within the bound (the distances within it are the same either way, those beyond it
     # are beyond every limit they are compared with).
+    # Both directions of each edge stored once (the same graph): an undirected walk transposes the whole mesh's
+    # matrix again on every call (60k faces: 33 walks, 0.01 s of transposes).
+    both = (mesh + mesh.T).tocsr()
     far = np.zeros(len(check), dtype=bool)
     for source in unique_ints(a):
         mine = np.flatnonzero(a == source)
-        reach = dijkstra(mesh, directed=False, indices=int(source), limit=float(limit[mine].max()))
+        reach = dijkstra(both, directed=True, indices=int(source), limit=float(limit[mine].max()))
         far[mine] = reach[b[mine]] > limit[mine]
     out[check[far]] = True
     return out

@@ -365,7 +365,7 @@ class _Ties:
                 listed.append(here.numbers[rows].astype(np.int64) * n_faces + there.faces[rows])
                 moved = here.keys % 27 != _UNMOVED
                 listed.append(here.numbers[moved].astype(np.int64) * n_faces + here.faces[moved])
-        candidates = np.unique(np.concatenate(listed))
+        candidates = unique_ints(np.concatenate(listed))   # np.unique hashes: 0.04 s of 200k pairs
         # The distinct reads of the corners that have candidates: a corner read where it is (unless it lies on a
         # centre plane, where it is only read nudged off it), or nudged one way (``_NudgedNearest``, each once).
         corner = candidates // n_faces
@@ -373,8 +373,9 @@ class _Ties:
         idx = grid_index(corners_listed, field.max_level)
         plain = corners_listed[~np.any(idx == 2 ** (field.max_level - 1), axis=1)]
         rows = field.corner_row[plain]
-        moved = nudged.keys // 27
-        moved = np.flatnonzero(np.isin(moved, corners_listed))
+        moved = nudged.keys // 27     # which of them are listed, by a binary search (corners_listed is sorted)
+        at = np.minimum(np.searchsorted(corners_listed, moved), max(len(corners_listed) - 1, 0))
+        moved = np.flatnonzero(corners_listed[at] == moved) if len(corners_listed) else np.zeros(0, dtype=np.int64)
         read_keys = np.concatenate([plain * 27 + _UNMOVED, nudged.keys[moved]])
         order = np.argsort(read_keys, kind="stable")
         read_keys = read_keys[order]
@@ -390,10 +391,23 @@ class _Ties:
         read, face = read[face != own[read]], face[face != own[read]]
         # Measured a chunk of candidates at a time (each row on its own: the same as all at once, in less memory);
         # each read's nearly tied parts come out by the read's key (sorted: read is), with the foot on each.
+        # Most candidates' planes are out of the tie's reach: a first look through each triangle's plane, worked
+        # out once, a billionth of the field wider than ``_tied_parts``' own, leaves it a third (armadillo 20k:
+        # 166k -> 56k), slivers (their normals too uncertain for the billionth) to it.
+        side, other = (vertices[triangles[:, k]] - vertices[triangles[:, 0]] for k in (1, 2))
+        cross = np.cross(side, other)        # as ``_tied_parts`` works it out per candidate: the same floats
+        length = np.linalg.norm(cross, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            normal = cross / np.where(length > 1e-6 * np.linalg.norm(side, axis=1) * np.linalg.norm(other, axis=1),
+                                      length, np.nan)[:, None]
+        offset = np.einsum("ij,ij->i", normal, vertices[triangles[:, 0]])
+        reach = np.linalg.norm(point - nearest, axis=1) + TIE + 1e-9 * field.size
         keys, feet, margins = [], [], []
         for lo in range(0, len(read), TIE_CHUNK):
-            k, f, m = _tied_parts(vertices, triangles, point, nearest, read[lo:lo + TIE_CHUNK],
-                                  face[lo:lo + TIE_CHUNK])
+            rows, faces = read[lo:lo + TIE_CHUNK], face[lo:lo + TIE_CHUNK]
+            plane = np.abs(np.einsum("ij,ij->i", normal[faces], point[rows]) - offset[faces])
+            maybe = ~(plane >= reach[rows])            # NaN (a sliver): maybe
+            k, f, m = _tied_parts(vertices, triangles, point, nearest, rows[maybe], faces[maybe], cross, length)
             keys.append(read_keys[k])
             feet.append(f)
             margins.append(m)
@@ -441,22 +455,22 @@ class _Ties:
 TIE_CHUNK = 1 << 16   # candidate (read, triangle) pairs measured at once by ``_Ties``
 
 
-def _tied_parts(vertices, triangles, point, nearest, read, face):
+def _tied_parts(vertices, triangles, point, nearest, read, face, cross, length):
     """(read rows [T], feet [T, 3], margins [T]) of the candidates (``read`` [N] rows of ``point`` and
-    ``nearest``, ``face`` [N] triangles) nearly tied with their read's nearest point (``_Ties``)."""
-    corners = vertices[triangles[face]]
+    ``nearest``, ``face`` [N] triangles) nearly tied with their read's nearest point (``_Ties``); ``cross`` [F, 3]
+    and ``length`` [F]: each triangle's (b - a) x (c - a) and its norm."""
     # A triangle is no nearer than its plane: most candidates' planes are farther than the tie reaches.
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    at, own = point[read], nearest[read]
     with np.errstate(divide="ignore", invalid="ignore"):
-        plane = np.abs(np.einsum("ij,ij->i", point[read] - corners[:, 0], normal)) / np.linalg.norm(normal, axis=1)
-    reach = np.linalg.norm(point[read] - nearest[read], axis=1) + TIE
-    maybe = ~(plane >= reach)            # a degenerate triangle (no plane) is measured
-    read, corners = read[maybe], corners[maybe]
-    foot = _closest_on_triangles(point[read], corners[:, 0], corners[:, 1], corners[:, 2])
-    margin = np.linalg.norm(point[read] - foot, axis=1) - np.linalg.norm(point[read] - nearest[read], axis=1)
+        plane = np.abs(np.einsum("ij,ij->i", at - vertices[triangles[face, 0]], cross[face])) / length[face]
+    depth = np.linalg.norm(at - own, axis=1)
+    maybe = ~(plane >= depth + TIE)      # a degenerate triangle (no plane) is measured
+    read, at, own, depth, corners = read[maybe], at[maybe], own[maybe], depth[maybe], vertices[triangles[face[maybe]]]
+    foot = _closest_on_triangles(at, corners[:, 0], corners[:, 1], corners[:, 2])
+    margin = np.linalg.norm(at - foot, axis=1) - depth
     # Tied, and another part: a triangle whose nearest point is the read's own (a neighbour of its triangle at
     # the edge or corner the nearest point lies on) turns no edge another way.
-    near = (margin < TIE) & (np.linalg.norm(foot - nearest[read], axis=1) > TIE)
+    near = (margin < TIE) & (np.linalg.norm(foot - own, axis=1) > TIE)
     return read[near], foot[near], margin[near]
 
 
