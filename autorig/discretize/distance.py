@@ -184,13 +184,9 @@ class DistanceField:
         edge = np.left_shift(1, self.max_level - self.leaf_level[cell]).astype(np.int64)
         corners = self.leaf_index[cell][:, None, :] + CORNERS[None, :, :] * edge[:, None, None]     # [M, 8, 3]
         rows = self.corner_row[grid_number(corners.reshape(-1, 3), self.max_level)].reshape(-1, 8)
-        at = points[inside][:, None, :]
-        margin = 1e-9 * self.size
-        away = at - (self.origin + corners * self.finest)                                          # [M, 8, 3]
-        gap = np.sqrt(np.einsum("mki,mki->mk", away, away))
-        lower[inside] = np.maximum((np.abs(self.corner_depth[rows]) - gap).max(axis=1) - margin, 0.0)
-        away = at - self.corner_nearest[rows]
-        upper[inside] = np.sqrt(np.einsum("mki,mki->mk", away, away).min(axis=1)) + margin
+        below, upper[inside] = _corner_bounds(points[inside], self.origin + corners * self.finest,
+                                              self.corner_depth[rows], self.corner_nearest[rows], 1e-9 * self.size)
+        lower[inside] = np.maximum(below, 0.0)
         return lower, upper
 
     @property
@@ -280,6 +276,17 @@ def grid_index(numbers: np.ndarray, max_level: int) -> np.ndarray:
     return np.stack([numbers // (side * side), numbers // side % side, numbers % side], axis=1)
 
 
+def _corner_bounds(points, corner, depth, nearest, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lower [N], upper [N]) bounds of the distance from each point [N, 3] to the surface, by its cell's corners
+    [N, 8, 3] with their signed depths [N, 8] and nearest surface points [N, 8, 3] (the distance is 1-Lipschitz:
+    at least a corner's distance less the way to it, at most the way to a corner's nearest point), widened by
+    ``margin`` for rounding; the lower one not clamped at 0."""
+    away = points[:, None, :] - corner
+    lower = (np.abs(depth) - np.sqrt(np.einsum("nki,nki->nk", away, away))).max(axis=1) - margin
+    away = points[:, None, :] - nearest
+    return lower, np.sqrt(np.einsum("nki,nki->nk", away, away).min(axis=1)) + margin
+
+
 def _certain_leaves(centre, corner, depth, nearest, anchor_depth, half_diagonal: float, tolerance: float,
                     margin: float) -> np.ndarray:
     """[N] whether each cell (centre [N, 3], corners [N, 8, 3] with their depths [N, 8] and nearest surface
@@ -289,10 +296,7 @@ def _certain_leaves(centre, corner, depth, nearest, anchor_depth, half_diagonal:
     sign of its anchor corner (``anchor_depth`` [N], as ``SurfaceQuery.closest_on`` would lend it) and cannot
     be on the surface, and then a cell outside is far outside, one inside stays a leaf when every depth
     between the bounds interpolates within the tolerance. ``margin`` covers the rounding of the bounds."""
-    gap = np.sqrt(np.einsum("nki,nki->nk", corner - centre[:, None], corner - centre[:, None]))
-    lower = (np.abs(depth) - gap).max(axis=1) - margin
-    away = nearest - centre[:, None]
-    upper = np.sqrt(np.einsum("nki,nki->nk", away, away).min(axis=1)) + margin
+    lower, upper = _corner_bounds(centre, corner, depth, nearest, margin)
     signed = lower > half_diagonal * (1 + 1e-9) + margin
     signed &= anchor_depth != 0
     mean = depth.mean(axis=1)

@@ -96,7 +96,7 @@ class SurfaceQuery:
         points = np.ascontiguousarray(points, dtype=np.float64)
         if len(points) == 0:
             return np.zeros(0, dtype=np.int64)
-        return np.asarray(self._tree.squared_distance(self.vertices, self.faces, points)[1], dtype=np.int64)
+        return np.asarray(self.raw_squared_distance(points)[1], dtype=np.int64)
 
     def closest(self, points: np.ndarray, known_points: np.ndarray | None = None,
                 known_depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
