@@ -265,7 +265,8 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
 
     def placed(embedding):
         return along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
-                                     template), template)
+                                     template, on_paths=place_on_paths(graph, embedding, template, None)),
+                              template)
     with stage("refinement"):
         joints = placed(embedding)
     if held is None:

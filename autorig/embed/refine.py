@@ -14,7 +14,9 @@ depth          1.0     each joint at least as deep in the volume as where it sta
 inside         4.0     every bone's segment inside the mesh
 length         1.0     bone lengths as placed on the paths (squared relative change)
 direction      1.0     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
-                       on the spine)
+                       on the spine); a bone whose path points more than 90 degrees from the template's
+                       (a hand turned inward across the chest) toward its path's direction in part
+                       (``_bone_targets``)
 symmetry       0.5     mirrored joints mirror images of each other about the body's mid-plane, each pair as
                        much as the mesh about it is its own mirror image (``pair_symmetry``: a stride's
                        legs, a raised arm are not mirrored; a symmetric body's near-ties are)
@@ -48,7 +50,7 @@ SYMMETRY_SAMPLES = 2000
 def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface) -> np.ndarray:
     """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths, each
     path smoothed and each tip read off ``surface`` (a ``readoff.tips.Surface`` of the mesh in the graph's
-    frame: the centroid of its limb's end cap)."""
+    frame: the centroid of its limb's end cap; None: each path's own end)."""
     reduced = template.reduced()
     mirror = template.mirror_of()
     positions = np.zeros((len(template.names), 3))
@@ -56,7 +58,7 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
     for k in range(1, len(reduced.joints)):
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
-        if template.is_tip(chain[-1]):
+        if surface is not None and template.is_tip(chain[-1]):
             polyline = _end_at(polyline, surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1]))
         polyline = _smoothed(polyline)
         seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
@@ -121,8 +123,28 @@ def pair_symmetry(field, joints: np.ndarray, left: np.ndarray, right: np.ndarray
     return np.where(count > 0, 1.0 / (1.0 + (mean / SYMMETRY_SCALE) ** 2), 1.0)
 
 
-def refine(field: DistanceField, initial: np.ndarray, template: Template, max_iterations: int = 200) -> np.ndarray:
-    """[J, 3] joint positions after continuous optimisation, starting from ``initial`` [J, 3]."""
+def _bone_targets(template_bones: np.ndarray, placed_bones: np.ndarray) -> np.ndarray:
+    """[B, 3] unit directions the refinement's direction term turns each bone toward: the template's, for a bone
+    placed on its path within 90 degrees of it (a character in the template's rest pose: every bone); for a bone
+    whose path points farther away (a forearm folded across the chest, a hand turned inward; ``template_bones``
+    and ``placed_bones`` [B, 3]) the template's and the path's own, blended by how far past 90 degrees it points.
+    The template's direction alone had turned the hands of arms bent in front of the chest back outward, each
+    wrist pulled past the other hand's (posed MakeHuman bodies: wrists 4-5 % of the height off, on the other
+    wrist's side of it)."""
+    ahead = template_bones / np.linalg.norm(template_bones, axis=1, keepdims=True)
+    placed = placed_bones / np.maximum(np.linalg.norm(placed_bones, axis=1, keepdims=True), 1e-12)
+    keep = np.clip(1.0 + np.einsum("ij,ij->i", ahead, placed), 0.0, 1.0)[:, None]
+    blend = keep * ahead + (1.0 - keep) * placed
+    blend /= np.maximum(np.linalg.norm(blend, axis=1, keepdims=True), 1e-12)
+    return np.where(keep < 1.0, blend, ahead)
+
+
+def refine(field: DistanceField, initial: np.ndarray, template: Template, max_iterations: int = 200,
+           on_paths: np.ndarray | None = None) -> np.ndarray:
+    """[J, 3] joint positions after continuous optimisation, starting from ``initial`` [J, 3]. ``on_paths``
+    [J, 3]: the joints along the embedded paths without their tips read off (``place_on_paths`` with no
+    surface), whose bones' directions the direction term leans toward where they point away from the
+    template's (``_bone_targets``); None: the template's directions alone."""
     from scipy.optimize import minimize
 
     J = len(template.names)
@@ -135,7 +157,10 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
     target_depth = np.where(solid, np.maximum(field.depth(initial), 0.0), 0.0)
     rest_length = np.maximum(np.linalg.norm(initial[child] - initial[parent], axis=1), 1e-6)
     template_dir = template.positions[child] - template.positions[parent]
-    template_dir /= np.linalg.norm(template_dir, axis=1, keepdims=True)
+    if on_paths is None:
+        template_dir /= np.linalg.norm(template_dir, axis=1, keepdims=True)
+    else:
+        template_dir = _bone_targets(template_dir, on_paths[child] - on_paths[parent])
     # Mirror pairs, and the mid-plane's own joints as pairs of themselves (a head, a tail end: mirrored, they
     # are to stay where they are). Without the latter a tip on a symmetric body can settle on either side of
     # the plane, whichever the search happens to reach (a 0 A.D. aurochs' head_end 2.5 % of the height left or
