@@ -124,13 +124,15 @@ def pair_symmetry(field, joints: np.ndarray, left: np.ndarray, right: np.ndarray
 
 
 def _bone_targets(template_bones: np.ndarray, placed_bones: np.ndarray) -> np.ndarray:
-    """[B, 3] unit directions the refinement's direction term turns each bone toward: the template's, for a bone
-    placed on its path within 90 degrees of it (a character in the template's rest pose: every bone); for a bone
-    whose path points farther away (a forearm folded across the chest, a hand turned inward; ``template_bones``
-    and ``placed_bones`` [B, 3]) the template's and the path's own, blended by how far past 90 degrees it points.
-    The template's direction alone had turned the hands of arms bent in front of the chest back outward, each
-    wrist pulled past the other hand's (posed MakeHuman bodies: wrists 4-5 % of the height off, on the other
-    wrist's side of it)."""
+    """[B, 3] unit directions the refinement's direction term turns each bone toward: the template's, to the bit,
+    for a bone placed on its path within 90 degrees of it (nearly every bone of a character in the template's
+    rest pose); for a bone whose path points farther away (a hand turned inward across the chest;
+    ``template_bones`` and ``placed_bones`` [B, 3]) the template's and the path's own, blended by how far past
+    90 degrees it points. The template's direction alone had turned the hands of arms bent in front of the chest
+    back outward, each wrist pulled past the other hand's (posed MakeHuman bodies: wrists 4-5 % of the height
+    off, on the other wrist's side of it). The placed bones are the paths' own, without the tips read off the
+    surface: a tip read off short of its path's end (Homer's toes) would point a bone backward, which the
+    template's direction is there to mend."""
     ahead = template_bones / np.linalg.norm(template_bones, axis=1, keepdims=True)
     placed = placed_bones / np.maximum(np.linalg.norm(placed_bones, axis=1, keepdims=True), 1e-12)
     keep = np.clip(1.0 + np.einsum("ij,ij->i", ahead, placed), 0.0, 1.0)[:, None]
