@@ -104,3 +104,57 @@ def test_each_vertex_climbs_to_the_top_the_edge_by_edge_sort_finds(sample):
         assert np.array_equal(_tops(graph, reach), _tops_by_lexsort(graph, reach))
         assert np.array_equal(_tops(lonely, np.r_[reach, 5.0]), _tops_by_lexsort(lonely, np.r_[reach, 5.0]))
     assert len(np.unique(_tops(graph, surface.reach))) > 3       # the limbs' ends, each its own top
+
+
+def _rod(centre, axis, length, radius=0.008, step=0.01, sides=6):
+    """(vertices, faces) of a closed six-sided rod with a ring of vertices every ``step`` along it: a spear."""
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(axis, u)
+    rings = int(round(length / step)) + 1
+    angles = 2 * np.pi * np.arange(sides) / sides
+    circle = radius * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * w)
+    along = np.linspace(-length / 2, length / 2, rings)
+    vertices = (np.asarray(centre, float) + along[:, None, None] * axis + circle[None]).reshape(-1, 3)
+    faces = []
+    for r in range(rings - 1):
+        for s in range(sides):
+            a, b = r * sides + s, r * sides + (s + 1) % sides
+            faces += [[a, b, a + sides], [b, b + sides, a + sides]]
+    ends = len(vertices) + np.arange(2)
+    vertices = np.vstack([vertices, np.asarray(centre) + np.outer([-length / 2, length / 2], axis)])
+    for s in range(sides):
+        faces += [[ends[0], (s + 1) % sides, s], [ends[1], (rings - 1) * sides + s, (rings - 1) * sides + (s + 1) % sides]]
+    return vertices, np.array(faces)
+
+
+@pytest.mark.parametrize("behind", [0.05, 0.3])
+def test_a_hand_holding_a_spear_ends_at_the_hand_not_at_the_spear_point(sample, behind):
+    """A spear (a separate rod) through the fist, its grip ``behind`` from its back end: the arm's path ends in
+    the shaft, and the hand's tip climbed from there ran up the shaft to the spear's point (re-posed 0 A.D.
+    spearmen: half the height past the hand, wrists 15-18 % off). A held stick is not the hand's end."""
+    vertices, joints = canonical(sample)
+    grip = joints["left_wrist"] + 0.6 * (joints["left_hand_end"] - joints["left_wrist"])
+    length = 0.6
+    rod_v, rod_f = _rod(grip + [0.0, 0.0, length / 2 - behind], [0.0, 0.0, 1.0], length)
+    all_vertices = np.vstack([vertices, rod_v])
+    faces = np.vstack([sample.faces, rod_f + len(vertices)])
+    surface = Surface(all_vertices, faces, core_of(all_vertices, faces))
+    tip = surface.tip(grip)
+    assert np.linalg.norm(tip - joints["left_hand_end"]) < 0.05
+    # the head's and the other hand's tips are read as before
+    assert np.linalg.norm(surface.tip(joints["head"], midline=True) - joints["head_end"]) < 0.05
+
+
+def test_a_limb_that_is_a_rod_of_its_own_keeps_its_end(sample):
+    """A stick with no other piece near the path's end is a limb of its own (a rod-like separate leg): its end
+    is climbed on it."""
+    vertices, joints = canonical(sample)
+    rod_v, rod_f = _rod(joints["left_hand_end"] + [0.3, 0.0, 0.0], [1.0, 0.0, 0.0], 0.4)
+    all_vertices = np.vstack([vertices, rod_v])
+    faces = np.vstack([sample.faces, rod_f + len(vertices)])
+    surface = Surface(all_vertices, faces, core_of(all_vertices, faces))
+    start = joints["left_hand_end"] + [0.4, 0.0, 0.0]
+    tip = surface.tip(start)
+    assert tip[0] > start[0] + 0.05       # climbed outward along the rod, away from the body

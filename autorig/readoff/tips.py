@@ -18,6 +18,15 @@ Here the tip is a continuous function of the surface:
    of the cap it lies (a weight falling smoothly to 0 at the cap's edge). Two nearly equal maxima on a
    round crown share one cap, so the tip does not jump between them; a vertex entering the cap enters
    with weight 0.
+
+A hand holding a spear or a sword: the weapon is a separate piece passing through the fist, and the arm's
+path often ends in it (the medial spheres of the grip lie in the shaft). Climbed from there, the hand's tip
+ran up the shaft to the weapon's far end, half the height past the hand, and the arm's joints, spread along
+the path to that tip, put the wrist 15-18 % of the height off (re-posed 0 A.D. spearmen in a stride). A
+separate piece shaped like a stick (``STICK``: its second-longest extent under a fifth of its longest, the
+body's main piece never) is a held thing, not a limb's end, when the limb's path reaches another piece
+close by (``HELD``): a paired limb's end (a hand, a foot) is climbed from that other piece. A limb that is a
+stick of its own (a rod-like separate leg) keeps its piece: no other piece is that near its path's end.
 """
 from __future__ import annotations
 
@@ -29,6 +38,8 @@ CAP = 0.03    # the cap's depth, as a fraction of the height (the canonical fram
 NEAR = 0.02   # the source's reach: vertices this much farther from the core than the nearest one
 PIECE = 0.1   # a piece whose box's diagonal is shorter than this (fraction of the height) holds no limb
 PAIR = 0.1    # two ends within this of each other's mirror images are a mirrored pair (two ears, two horns)
+STICK = 0.2   # a separate piece whose second-longest principal extent is under this share of its longest is a stick
+HELD = 0.1    # a stick is held when another piece lies this near the limb's path's end (fraction of the height)
 MIRROR = np.array([-1.0, 1.0, 1.0])
 
 
@@ -63,13 +74,22 @@ class Surface:
                                                                                axis=1) / 6.0, 3), minlength=V)
         self._used = np.flatnonzero(self.body)
         self._tree = cKDTree(self.vertices[self._used])
+        sticks = _sticks(self.vertices, self.body, count, piece)
+        # The body without its sticks, where a paired limb's end is climbed from (None: there are no sticks).
+        self._unheld = np.flatnonzero(self.body & ~sticks[piece]) if sticks.any() else None
+        self._unheld_tree = cKDTree(self.vertices[self._unheld]) if self._unheld is not None and len(
+            self._unheld) else None
+        self._stick_vertex = sticks[piece]
 
     def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray:
         """[3] the tip of the limb whose end lies nearest the point ``start`` [3]. midline: the tip of a part
         on the body's mid-plane (x = 0: a head, a tail), whose end may be a mirrored pair (two ears, two
         horns): the mean of the tips reached from ``start`` and from its mirror image when they are such a
-        pair, so that which of the two the climb reaches does not matter."""
+        pair, so that which of the two the climb reaches does not matter. A paired limb's end (not
+        ``midline``) is not climbed on a held stick (the module's last paragraph)."""
         start = np.asarray(start, float)
+        if not midline:
+            return self._tip(start, cap, unheld=True)
         tip = self._tip(start, cap)
         if midline:
             other = self._tip(start * MIRROR, cap)
@@ -79,11 +99,16 @@ class Surface:
                 return 0.5 * (tip + other)
         return tip
 
-    def _tip(self, start: np.ndarray, cap: float) -> np.ndarray:
+    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False) -> np.ndarray:
         from scipy.sparse.csgraph import connected_components
 
         _, i = self._tree.query(start)
-        end = int(self.top[self._used[int(i)]])
+        first = self._used[int(i)]
+        if unheld and self._unheld_tree is not None and self._stick_vertex[first]:
+            near, j = self._unheld_tree.query(start)
+            if near <= HELD:
+                first = self._unheld[int(j)]
+        end = int(self.top[first])
         floor = self.reach[end] - cap
         inside = np.flatnonzero(self.reach > floor)
         sub = self.graph[inside][:, inside]
@@ -110,6 +135,29 @@ def _body(vertices: np.ndarray, faces: np.ndarray, count: int, piece: np.ndarray
     if not large.any():
         large[np.argmax(size)] = True
     return used & large[piece]
+
+
+def _sticks(vertices: np.ndarray, body: np.ndarray, count: int, piece: np.ndarray) -> np.ndarray:
+    """[count] bool: the pieces of the body shaped like a stick (a spear, a sword, a staff): the spread of their
+    vertices across their longest principal direction under ``STICK`` of the spread along it. The body's
+    largest piece (by vertices) is never one."""
+    out = np.zeros(count, bool)
+    members = np.flatnonzero(body)
+    if not len(members):
+        return out
+    sizes = np.bincount(piece[members], minlength=count)
+    largest = int(np.argmax(sizes))
+    order = members[np.argsort(piece[members], kind="stable")]
+    bounds = np.searchsorted(piece[order], np.arange(count + 1))
+    for p in np.flatnonzero(sizes >= 3):
+        if p == largest:
+            continue
+        points = vertices[order[bounds[p]:bounds[p + 1]]]
+        centred = points - points.mean(axis=0)
+        _, _, axes = np.linalg.svd(centred, full_matrices=False)
+        spread = np.ptp(centred @ axes.T, axis=0)
+        out[p] = spread[1] < STICK * spread[0]
+    return out
 
 
 def _tops(graph, reach: np.ndarray) -> np.ndarray:
