@@ -106,17 +106,21 @@ def test_each_vertex_climbs_to_the_top_the_edge_by_edge_sort_finds(sample):
     assert len(np.unique(_tops(graph, surface.reach))) > 3       # the limbs' ends, each its own top
 
 
-def _rod(centre, axis, length, radius=0.008, step=0.01, sides=6):
-    """(vertices, faces) of a closed six-sided rod with a ring of vertices every ``step`` along it: a spear."""
+def _rod(centre, axis, length, radius=0.008, step=0.01, sides=6, width=None):
+    """(vertices, faces) of a closed six-sided rod with a ring of vertices every ``step`` along it: a spear.
+    width: a function of the place along the rod (-length / 2 .. length / 2) giving the ring's half-width
+    across (a blade, flat as ``radius``, with a crossguard)."""
     axis = np.asarray(axis, float) / np.linalg.norm(axis)
     u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
     u /= np.linalg.norm(u)
     w = np.cross(axis, u)
     rings = int(round(length / step)) + 1
     angles = 2 * np.pi * np.arange(sides) / sides
-    circle = radius * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * w)
     along = np.linspace(-length / 2, length / 2, rings)
-    vertices = (np.asarray(centre, float) + along[:, None, None] * axis + circle[None]).reshape(-1, 3)
+    half = np.full(rings, radius) if width is None else np.array([width(t) for t in along])
+    circle = (half[:, None, None] * np.cos(angles)[None, :, None] * u
+              + radius * np.sin(angles)[None, :, None] * w)
+    vertices = (np.asarray(centre, float) + along[:, None, None] * axis + circle).reshape(-1, 3)
     faces = []
     for r in range(rings - 1):
         for s in range(sides):
@@ -158,3 +162,18 @@ def test_a_limb_that_is_a_rod_of_its_own_keeps_its_end(sample):
     start = joints["left_hand_end"] + [0.4, 0.0, 0.0]
     tip = surface.tip(start)
     assert tip[0] > start[0] + 0.05       # climbed outward along the rod, away from the body
+
+
+def test_a_hand_holding_a_sword_with_a_crossguard_ends_at_the_hand(sample):
+    """A sword: a flat blade 0.03 wide with a crossguard 0.14 across, one piece. The guard makes it as wide as
+    a forearm across (a fifth of its length), but its surface is a blade's: it is held, not the hand's end."""
+    vertices, joints = canonical(sample)
+    grip = joints["left_wrist"] + 0.6 * (joints["left_hand_end"] - joints["left_wrist"])
+    length = 0.5
+    blade = lambda t: 0.07 if -0.17 <= t <= -0.15 else (0.01 if t < -0.17 else 0.015)   # noqa: E731
+    sword_v, sword_f = _rod(grip + [0.0, length / 2 - 0.05, 0.0], [0.0, 1.0, 0.0], length, radius=0.004,
+                            width=blade)
+    all_vertices = np.vstack([vertices, sword_v])
+    faces = np.vstack([sample.faces, sword_f + len(vertices)])
+    surface = Surface(all_vertices, faces, core_of(all_vertices, faces))
+    assert np.linalg.norm(surface.tip(grip) - joints["left_hand_end"]) < 0.05
