@@ -109,7 +109,7 @@ class Template:
                to the shared anatomy (``autorig.embed.convention``), or None
     default_convention  the convention a rig takes unless told (a key of ``conventions``), or None
     fingers    whether rigs of it get fingers read off their hands (``autorig.hands``); default False
-    legs       {joint name: {"height": [2], "offset": [2]}}: where a four-legged animal's leg joints sit on its
+    legs       {joint name: {"height": [3] or "ratio": [3], "offset": [2]}}: where a four-legged animal's leg joints sit on its
                legs as the mesh shows them (``autorig.readoff.legs``), or None
     """
     name: str

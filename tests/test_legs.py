@@ -74,7 +74,8 @@ def test_legs_round_trip_and_bad_rules(template):
     data = template.to_dict()
     assert template_from_dict(data).legs == template.legs
     for bad in ({"nose": {"offset": [0, 0]}}, {"back_left_knee": {"offset": [0]}},
-                {"back_left_knee": {"height": [1, 2], "offset": [0, 0]}}, ["back_left_knee"]):
+                {"back_left_knee": {"height": [1, 2], "offset": [0, 0]}}, ["back_left_knee"],
+                {"front_left_wrist": {"ratio": [1, 2], "offset": [0, 0]}}):
         with pytest.raises(TemplateError, match="legs"):
             template_from_dict({**data, "legs": bad})
 
@@ -194,3 +195,42 @@ def _ancestors(template, j):
         j = int(template.parents[j])
         out.append(j)
     return out
+
+
+def _leg(fore_aft):
+    """A measured leg 0.4 tall whose rings' fore-aft widths are ``fore_aft(level)`` (sides 0.05 wide)."""
+    from autorig.readoff.legs import LEVELS, Leg
+    levels = LEVELS[LEVELS <= 0.4]
+    widths = np.stack([np.full(len(levels), 0.05), [fore_aft(y) for y in levels]], axis=1)
+    return Leg(chain=[0, 1, 2, 3, 4], side=1.0, levels=levels, centres=np.zeros((len(levels), 2)), widths=widths,
+               free=0.4, top=0.8)
+
+
+def test_a_hoofed_legs_wrist_sits_higher_than_a_pawed_ones():
+    """The shipped quadruped reads a wrist's height off the foot (``foot_features``): a hoof no longer than the
+    cannon above it puts the carpus half-way up the leg, a paw twice as long as the leg's thinnest just above
+    the paw (issue 37: the template's proportions had every hoofed animal's wrist 5-14 % of its extent low and
+    every dog's, cat's and bear's 2-6 % high)."""
+    from autorig.readoff.legs import RATIO_RANGE, foot_features
+    rule = load_template("quadruped").legs["front_left_wrist"]["ratio"]
+    hoof = _leg(lambda y: 0.04 if y < 0.2 else 0.04 + 0.3 * (y - 0.2))
+    paw = _leg(lambda y: 0.12 - 0.8 * y if y < 0.1 else 0.04 + 0.15 * (y - 0.1))
+    np.testing.assert_allclose(foot_features(hoof)[1:], [0.1, 1.0])
+    assert foot_features(paw)[1] == pytest.approx(0.24) and foot_features(paw)[2] > 2.0
+    hoofed, pawed = (float(np.clip(np.dot(rule, foot_features(leg)), *RATIO_RANGE)) for leg in (hoof, paw))
+    assert hoofed > 0.4 and pawed < 0.3 and hoofed - pawed > 0.2
+
+
+SHARED_MESHES = __import__("pathlib").Path(__file__).resolve().parents[1].parent / "shared" / "data" / "meshes"
+
+
+@pytest.mark.skipif(not SHARED_MESHES.is_dir(), reason="shared data (../shared/data) is not present")
+@pytest.mark.parametrize("name, front", [("spot", "-z"), ("cow", "x")])
+def test_a_wrist_read_off_the_foot_stays_between_its_paw_and_its_elbow(name, front):
+    """A cartoon cow's hoof is a bulb 3.6 times as long as its leg's thinnest, past any example's foot: the
+    wrist's share, read off the foot, fell to the ground under the paw. It is kept within the examples' shares
+    and above the paw."""
+    rig = autorig.rig(SHARED_MESHES / f"{name}.obj", "quadruped", autorig.RigOptions(up="y", front=front))
+    for side in ("left", "right"):
+        paw, wrist, elbow = (rig.joint(f"front_{side}_{j}")[1] for j in ("paw", "wrist", "elbow"))
+        assert paw < wrist < elbow

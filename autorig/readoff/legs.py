@@ -43,6 +43,15 @@ BEND_FROM = 0.15
 # the body's line, so the confidence of a template with legs is calibrated on the other joints.
 CONVENTION_JOINTS = ("hips", "spine", "chest", "neck")
 FEATURES = 3
+# A wrist's height is a share of the leg's free height learned from the foot's size (``foot_features``): its
+# length fore and aft measured this high (a fraction of the height), against the leg's thinnest below
+# THIN_SHARE of the free height; the share kept within the examples' ("range"; RATIO_RANGE without it): a
+# cartoon cow's bulb of a hoof, 3.6 times the leg's thinnest, is no paw.
+FOOT_FEATURES = 3
+FOOT_LEVEL = 0.03
+THIN_SHARE = 0.7
+RATIO_RANGE = (0.05, 0.95)   # without the learned "range" (the least and the most share of the examples)
+ABOVE_PAW = 0.08   # the wrist at least this share of the way from the paw up to the elbow (the examples: 0.09-0.69)
 # The keys of the rules for joints read off the trunk rather than a leg, with their lengths: the rump's (tail
 # base), the skull's (head) and the snout's (the head's rule before the skull's, still read).
 READ_OFF = {"rump": 2, "skull": 4, "snout": 2}
@@ -245,6 +254,18 @@ def joint_features(leg: Leg) -> np.ndarray:
     return np.array([leg.free, bend(leg), leg.top - leg.free])[:FEATURES]
 
 
+def foot_features(leg: Leg) -> np.ndarray:
+    """[FOOT_FEATURES] what a wrist's height is learned from, as a share of the leg's free height: (1, the
+    foot's length fore and aft at ``FOOT_LEVEL`` over ``free``, that length over the leg's thinnest fore-aft
+    width below ``THIN_SHARE`` of ``free``). A hoof is short and no longer than the cannon above it, and the
+    carpus sits half-way up an ungulate's leg; a paw is long, and the wrist sits just above it."""
+    levels, fore_aft = leg.levels, leg.widths[:, 1]
+    foot = float(np.interp(FOOT_LEVEL, levels, fore_aft))
+    low = levels <= THIN_SHARE * leg.free
+    thinnest = float(fore_aft[low].min() if low.any() else fore_aft.min())
+    return np.array([1.0, foot / max(leg.free, 1e-6), foot / max(thinnest, 1e-6)])
+
+
 def read_legs(joints: np.ndarray, template, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """[J, 3] ``joints`` (canonical frame) with each measured leg's joints placed by the template's learned
     ``legs`` ({joint name: {"height": [FEATURES] (optional: without it the joint keeps its height), "offset":
@@ -261,8 +282,14 @@ def read_legs(joints: np.ndarray, template, vertices: np.ndarray, faces: np.ndar
             rule = model.get(template.names[j])
             if rule is None or "offset" not in rule:
                 continue
-            height = rule.get("height")
-            y = float(joints[j, 1]) if height is None else float(np.dot(height, joint_features(leg)))
+            height, ratio = rule.get("height"), rule.get("ratio")
+            if ratio is not None:
+                # within the shares the examples had, and above the paw by a share of the way to the elbow
+                share = float(np.clip(np.dot(ratio, foot_features(leg)), *rule.get("range", RATIO_RANGE)))
+                elbow = float(joints[leg.chain[1], 1])
+                y = max(leg.free * share, float(joints[paw, 1]) + ABOVE_PAW * max(elbow - float(joints[paw, 1]), 0.0))
+            else:
+                y = float(joints[j, 1]) if height is None else float(np.dot(height, joint_features(leg)))
             centre, width = leg.across(y)
             offset = np.array(rule["offset"], float) * [leg.side, 1.0]
             x, z = centre + offset * width
@@ -295,11 +322,14 @@ def parse_legs(value, names, bad) -> dict | None:
         return isinstance(r, dict) and (
             (len(r) == 1 and set(r) <= set(READ_OFF) and numbers(next(iter(r.values())), READ_OFF[next(iter(r))]))
             or (not set(r) & set(READ_OFF) and ("height" not in r or numbers(r["height"], FEATURES))
-                and numbers(r.get("offset"))))
+                and ("ratio" not in r or numbers(r["ratio"], FOOT_FEATURES))
+                and ("range" not in r or ("ratio" in r and numbers(r["range"]))) and numbers(r.get("offset"))))
     if not isinstance(value, dict) or not all(k in names and rule(r) for k, r in value.items()):
-        raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "offset": [x, z]}} '
+        raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "ratio": '
+                  f'{FOOT_FEATURES} numbers and "range": [least, most] (optional), "offset": [x, z]}} '
                   'or {"rump": [k, m]} or {"skull": [c, a, k, m]} or {"snout": [k, m]}')
     return {k: {key: [float(x) for x in r[key]] for key in r} if set(r) & set(READ_OFF) else
             {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
+             **({key: [float(x) for x in r[key]] for key in ("ratio", "range") if key in r}),
              "offset": [float(x) for x in r["offset"]]} for k, r in value.items()} or None
 
