@@ -129,7 +129,8 @@ def _rod(centre, axis, length, radius=0.008, step=0.01, sides=6, width=None):
     ends = len(vertices) + np.arange(2)
     vertices = np.vstack([vertices, np.asarray(centre) + np.outer([-length / 2, length / 2], axis)])
     for s in range(sides):
-        faces += [[ends[0], (s + 1) % sides, s], [ends[1], (rings - 1) * sides + s, (rings - 1) * sides + (s + 1) % sides]]
+        last = (rings - 1) * sides
+        faces += [[ends[0], (s + 1) % sides, s], [ends[1], last + s, last + (s + 1) % sides]]
     return vertices, np.array(faces)
 
 

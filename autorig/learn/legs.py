@@ -32,7 +32,7 @@ animal's wrist had been placed 5-14 % of its largest extent too low (the carpus 
 every dog's, cat's and bear's 2-6 % too high (the wrist sits just above a long paw), the template's proportions
 being the average of both. The foot's length fore and aft tells them apart (``legs.foot_features``): by
 ``benchmarks/animals.py --templates quadruped --cv species --axes given --turns none``, the wrists went from
-5.6 % mean, 14.5 % worst (a stag) to 3.9 % and 9.6 % (a sheep); the dogs' and bears' wrists got 1-4 % worse.
+5.6 % mean, 14.5 % worst (a stag) to 3.7 % and 9.6 % (a sheep); the dogs' and bears' wrists got 1-4 % worse.
 """
 from __future__ import annotations
 
