@@ -141,6 +141,27 @@ def test_hands_that_meet_in_front_of_the_chest_stay_two_hands(tmp_path):
     assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "head")) < 8.0
 
 
+IBERIAN = ROOT.parent / "shared" / "data" / "train" / "0ad_iber_spearman_b"
+
+
+@pytest.mark.skipif(not IBERIAN.exists(), reason="shared data (../shared/data) is not present")
+def test_hands_on_arm_pieces_of_their_own_that_meet_stay_two_hands(tmp_path):
+    """0 A.D.'s Iberian spearman with his arms bent: each forearm and hand is a piece of its own, and his hands
+    meet in front of his chest. The surface cannot tell a contact between two pieces, so the graph kept the
+    edges between the hands: one limb end for both, and both arm chains went to the corners of his tunic at
+    the hips (a wrist 37.8 % of the height off, confidence 0.27). An edge between pieces that closes a loop
+    through the body is cut."""
+    import autorig
+    from poses import write_posed
+    folder = write_posed(IBERIAN, "arms bent", tmp_path)
+    meta = json.loads((folder / "joints.json").read_text())
+    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
+    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    assert verdict["structure"], verdict["wrong"]
+    assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "left_elbow", "right_elbow")) < 8.0
+    assert rig.info["confidence"] >= 0.5
+
+
 def test_elbows_on_each_others_side_make_a_rig_doubtful_and_say_so():
     """A chain that crossed to the other arm (posed MakeHuman bodies with their arms folded: left elbow 23 % of
     the height off, on the right, confidence 0.86) has its elbows each on the other's side of the body; hands
