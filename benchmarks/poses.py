@@ -15,7 +15,13 @@ relative to its parent, except feet, which are kept flat. The poses:
   forearms point inward and a little up in front of the chest (as holding a weapon);
 - ``stride``: left thigh 25 deg forward, right thigh 15 deg back, knees bent 20 and 15 deg, feet flat;
 - ``seated``: thighs 85 deg forward, knees bent 90 deg (shins down), feet flat;
-- ``idle``: arms bent and stride together.
+- ``idle``: arms bent and stride together;
+
+and, only when ``--poses`` names them (issue 37 asks for the four above):
+
+- ``hands on hips``: upper arms 45 deg out of hanging down, forearms inward and down onto the hips (akimbo);
+- ``arm raised``: the left arm raised above the head, the right as at rest;
+- ``reach``: both arms straight forward, level.
 
 Every posed character is rigged with the shipped biped (and with ``--humanoid`` the shipped humanoid; they
 learned from these characters, in their rest poses only), or with ``--folds K`` with templates learned as
@@ -78,6 +84,25 @@ POSES = {
     "seated": {"left": SEATED, "right": SEATED},
     "idle": {s: ARMS + STRIDE[s] for s in ("left", "right")},
 }
+DEFAULT_POSES = tuple(POSES)     # what a run without --poses measures (issue 37's poses)
+
+
+def _unit(*v: float) -> tuple[float, float, float]:
+    v = np.array(v, float) / np.linalg.norm(v)
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+# Poses the default run leaves out (``--poses`` takes them): hands on the hips (akimbo: upper arms 45 deg out
+# of hanging down, forearms inward and down onto the hips, the hands touching or pressed into the body), the
+# left arm raised above the head (a little out and forward, the right as at rest), both arms reaching forward.
+AKIMBO = [(("shoulder", "elbow"), _unit(0.7, -0.7, -0.1)), (("elbow", "wrist"), _unit(-0.55, -0.8, 0.15))]
+RAISED = [(("shoulder", "elbow"), _unit(0.15, 0.95, 0.3)), (("elbow", "wrist"), _unit(0.05, 0.95, 0.3))]
+REACH = [(("shoulder", "elbow"), _unit(0.05, 0.0, 1.0)), (("elbow", "wrist"), _unit(0.0, 0.0, 1.0))]
+POSES.update({
+    "hands on hips": {"left": AKIMBO, "right": AKIMBO},
+    "arm raised": {"left": RAISED, "right": []},
+    "reach": {"left": REACH, "right": REACH},
+})
 
 
 def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -320,7 +345,8 @@ def main(argv=None) -> int:
     parser.add_argument("--corpus", type=Path, default=ROOT.parent / "corpus")
     parser.add_argument("--all", action="store_true", help="every biped example, not 8 + 8")
     parser.add_argument("--humanoid", action="store_true", help="also the shipped humanoid")
-    parser.add_argument("--poses", default=",".join(POSES), help="comma-separated, of: " + ", ".join(POSES))
+    parser.add_argument("--poses", default=",".join(DEFAULT_POSES),
+                        help="comma-separated, of: " + ", ".join(POSES) + f" (default: {', '.join(DEFAULT_POSES)})")
     parser.add_argument("--folds", type=int, default=0,
                         help="cross-validate: learn each template without the character's group (0: the shipped)")
     parser.add_argument("--out", type=Path, help="keep the posed characters here (OBJ for autorig preview)")
