@@ -162,6 +162,26 @@ def test_hands_on_arm_pieces_of_their_own_that_meet_stay_two_hands(tmp_path):
     assert rig.info["confidence"] >= 0.5
 
 
+JAVELINIST = ROOT.parent / "shared" / "data" / "train" / "0ad_brit_javelinist_a"
+
+
+@pytest.mark.skipif(not JAVELINIST.exists(), reason="shared data (../shared/data) is not present")
+def test_hands_resting_on_the_hips_end_the_arms(tmp_path):
+    """0 A.D.'s British javelinist with his hands on his hips (``poses.py``'s "hands on hips"): each arm is a
+    separate piece, and its point nearest the body's core is the hand, which rests on the hip. The hand's tip was
+    climbed from there up the arm to the shoulder, behind where the arm's chain starts, and the arm's joints,
+    spread along the path to that tip, put both wrists at the neck (23.6 % off, confidence 0.87). A tip read
+    behind its limb's start is not the limb's end: the chain ends at its path's end, the hand."""
+    import autorig
+    from poses import write_posed
+    folder = write_posed(JAVELINIST, "hands on hips", tmp_path)
+    meta = json.loads((folder / "joints.json").read_text())
+    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
+    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    assert verdict["structure"], verdict["wrong"]
+    assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "left_elbow", "right_elbow")) < 8.0
+
+
 def test_elbows_on_each_others_side_make_a_rig_doubtful_and_say_so():
     """A chain that crossed to the other arm (posed MakeHuman bodies with their arms folded: left elbow 23 % of
     the height off, on the right, confidence 0.86) has its elbows each on the other's side of the body; hands

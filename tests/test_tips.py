@@ -178,3 +178,15 @@ def test_a_hand_holding_a_sword_with_a_crossguard_ends_at_the_hand(sample):
     faces = np.vstack([sample.faces, sword_f + len(vertices)])
     surface = Surface(all_vertices, faces, core_of(all_vertices, faces))
     assert np.linalg.norm(surface.tip(grip) - joints["left_hand_end"]) < 0.05
+
+
+def test_a_tip_read_behind_its_limbs_start_is_not_its_end():
+    """A limb's path runs from its parent's joint to its end; the tip read off the surface may fall short of the
+    path's end (a path that ran past the end cap) or beyond it, never behind the limb's start: such a read
+    climbed another part (a hand resting on the hip, its arm a separate piece, read up to the shoulder)."""
+    from autorig.embed.refine import _beyond_start
+    path = np.array([[0.0, 0.5, 0.0], [0.1, 0.55, 0.0], [0.2, 0.6, 0.0]])
+    assert _beyond_start(path, np.array([0.25, 0.62, 0.0]))       # past the end: the limb's end cap
+    assert _beyond_start(path, np.array([0.15, 0.58, 0.01]))      # short of the path's end
+    assert not _beyond_start(path, np.array([-0.05, 0.45, 0.0]))  # behind where the limb starts
+    assert not _beyond_start(path[:1], np.array([0.1, 0.5, 0.0]))  # no chord: the path's own end

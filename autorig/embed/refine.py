@@ -59,7 +59,9 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
         if surface is not None and template.is_tip(chain[-1]):
-            polyline = _end_at(polyline, surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1]))
+            tip = surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1])
+            if _beyond_start(polyline, tip):
+                polyline = _end_at(polyline, tip)
         polyline = _smoothed(polyline)
         seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
         arc = np.concatenate([[0.0], np.cumsum(seg)])
@@ -68,6 +70,16 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
         for joint, s in zip(chain[1:], fractions[1:]):
             positions[joint] = _point_at(polyline, arc, s * arc[-1])
     return positions
+
+
+def _beyond_start(polyline: np.ndarray, tip: np.ndarray) -> bool:
+    """Whether ``tip`` [3] lies beyond the start of the polyline [P, 3] along its chord (start to end): a limb's
+    end, read off the surface, may lie short of its path's end (a path that ran on past the end cap) but not
+    behind the limb's start. A climb on a piece whose point nearest the body's core is not where it joins the
+    body ran the other way: a hand resting on the hip, its arm a separate piece (0 A.D.), climbed from the
+    hand up to the shoulder; a head's cap that reached into a raised arm and the legs, down to the feet."""
+    chord = polyline[-1] - polyline[0]
+    return float((tip - polyline[0]) @ chord) > 0.0
 
 
 def _end_at(polyline: np.ndarray, tip: np.ndarray) -> np.ndarray:
