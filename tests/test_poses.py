@@ -182,6 +182,47 @@ def test_hands_resting_on_the_hips_end_the_arms(tmp_path):
     assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "left_elbow", "right_elbow")) < 8.0
 
 
+
+GAUL_JAVELINIST = ROOT.parent / "shared" / "data" / "train" / "0ad_gaul_javelinist_e"
+
+
+@pytest.mark.skipif(not GAUL_JAVELINIST.exists(), reason="shared data (../shared/data) is not present")
+def test_hands_pressed_into_the_hips_of_a_one_piece_body_end_the_arms(tmp_path):
+    """0 A.D.'s Gaul javelinist with his hands on his hips: his body, arms and hands are one piece, and the hands
+    press into the hips. Most edges between hand and hip are pinched and cut, but where the surfaces
+    interpenetrate a few are not (one to the widest sphere of the hips, its span beyond what the contact test
+    checked): the arms were loops through the hips with no hand end, their chains ended at bumps by the
+    shoulders, both wrists by the head (20.1 % of the height off, confidence 0.84). Around a contact, the edges
+    next to a cut one are checked again without the pinch, and cut where they close a long loop."""
+    import autorig
+    from poses import write_posed
+    folder = write_posed(GAUL_JAVELINIST, "hands on hips", tmp_path)
+    meta = json.loads((folder / "joints.json").read_text())
+    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
+    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    assert verdict["structure"], verdict["wrong"]
+    assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist")) < 15.0
+
+
+RIGGED_FIGURE = ROOT.parent / "shared" / "data" / "rigged" / "RiggedFigure"
+
+
+@pytest.mark.skipif(not RIGGED_FIGURE.exists(), reason="shared data (../shared/data) is not present")
+def test_a_raised_arm_whose_box_runs_into_the_torso_keeps_its_shoulder(tmp_path):
+    """The glTF sample RiggedFigure, a figure of boxes, with its left arm raised: the upper arm's box runs into
+    the torso's at the shoulder, and the contact test cuts some edges there. Checked again without the pinch,
+    every edge at that shoulder is as far over the surface (a box's corners lie far from the nearest points),
+    but without them nothing joins the arm to the body: an attachment, kept (cutting them all, a first version
+    lost the arm: its wrist 17 % of the height off)."""
+    import autorig
+    from poses import write_posed
+    folder = write_posed(RIGGED_FIGURE, "arm raised", tmp_path)
+    meta = json.loads((folder / "joints.json").read_text())
+    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
+    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    assert verdict["structure"], verdict["wrong"]
+    assert max(verdict["errors"][n] for n in ("left_wrist", "left_elbow")) < 8.0
+
 def test_elbows_on_each_others_side_make_a_rig_doubtful_and_say_so():
     """A chain that crossed to the other arm (posed MakeHuman bodies with their arms folded: left elbow 23 % of
     the height off, on the right, confidence 0.86) has its elbows each on the other's side of the body; hands

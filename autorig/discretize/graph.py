@@ -15,6 +15,17 @@ radii) though near in space. Such edges are cut (``_contacts``). The surface dis
 mesh's edges (Dijkstra, bounded at the span's multiple): a limb's own pinch (a wrist, a thin waist) keeps its
 edges, since around it the surface is as short as through it.
 
+Where one part presses into the other (a hand pressed into a hip, the hands on the thighs of a seated figure,
+two hands round a weapon's shaft), the surfaces interpenetrate: spheres inside both parts take the hand's
+surface as their nearest, segments there stay deep, and a few unpinched edges (some to the trunk's widest
+spheres, whose spans exceed ``CONTACT_SPAN``) carried the hand's chain into the hip. So around each contact
+found, the edges between spheres next to a cut edge are checked again without the pinch (a least depth under
+``NEAR_PINCH`` of the smaller radius) up to ``NEAR_SPAN``, their limit widened by the way from each nearest
+point to the vertex it is measured from (a low-poly box figure's corners lie far from its nearest points). Of
+those whose surfaces are as far apart, only the ones that close a loop longer than ``LOOP`` through the body
+are cut, as between pieces (``_piece_contacts``): a raised arm whose box interpenetrates the torso's at the
+shoulder keeps its attachment, since without those edges nothing else joins it.
+
 Between separate pieces of the mesh (a sword in a hand, a separate head, a game character's forearm-and-hand
 pieces) every junction is pinched and the surface cannot tell anything: there the graph itself does
 (``_piece_contacts``). The pinched edges between pieces are taken in the order of their distance from the
@@ -38,6 +49,8 @@ TIE = 1e-9   # gaps this close (of the largest radius) are equal: ``_bridge_piec
 PINCH = 0.5          # a segment whose least depth is under this fraction of the smaller radius may cross a contact
 CONTACT_RATIO = 3.0  # surface distance over the spheres' span beyond which a pinched edge is a contact
 CONTACT_SPAN = 0.12  # heights: spans above this are not checked (bounds the Dijkstra; limbs touch at smaller ones)
+NEAR_PINCH = 1.0     # next to a cut edge, a segment less deep than the smaller radius may cross the same contact
+NEAR_SPAN = 0.3      # heights: ... up to this span (the widest trunk spheres' edges to a limb: 0.16-0.17)
 LOOP = 0.4           # heights: a pinched edge between two pieces closing a longer loop is a contact
 
 
@@ -221,27 +234,53 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
     if not len(check):
         return out
     surface = field.surface
-    vertices, faces = surface.vertices, surface.faces
+    vertices = surface.vertices
     edges = surface.edges()     # each edge once
     weights = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     mesh = coo_matrix((weights, (edges[:, 0], edges[:, 1])), shape=(len(vertices),) * 2).tocsr()
     _, piece = connected_components(mesh, directed=False)
-    # each sphere's nearest surface point, and of its triangle the corner nearest it
-    spheres = unique_ints(pairs[check].ravel())
-    near = surface.nearest(c[spheres])
-    corner = faces[surface.nearest_faces(near)]
-    gaps = np.linalg.norm(vertices[corner] - near[:, None, :], axis=2)
-    vertex = np.full(len(c), -1, dtype=np.int64)
-    vertex[spheres] = corner[np.arange(len(spheres)), np.argmin(gaps, axis=1)]
+    vertex, offset = _nearest_corners(surface, c, unique_ints(pairs[check].ravel()))
     a, b = vertex[i[check]], vertex[j[check]]
     between = check[piece[a] != piece[b]]
     on_one = (piece[a] == piece[b]) & (a != b)
     check, a, b = check[on_one], a[on_one], b[on_one]
     if len(check):
         out[check[_surface_far(mesh, a, b, CONTACT_RATIO * span[check])]] = True
+    if out.any():
+        # Around each contact: the edges between spheres next to a cut one, unpinched (the module's docstring).
+        touched = np.zeros(len(c), dtype=bool)
+        touched[pairs[out].ravel()] = True
+        beside = touched.copy()
+        beside[i[touched[j]]] = True
+        beside[j[touched[i]]] = True
+        again = np.flatnonzero(beside[i] & beside[j] & ~out & (least < NEAR_PINCH * np.minimum(r[i], r[j]))
+                               & (span <= NEAR_SPAN))
+        vertex, offset = _nearest_corners(surface, c, unique_ints(pairs[again].ravel()))
+        a, b = vertex[i[again]], vertex[j[again]]
+        on_one = (piece[a] == piece[b]) & (a != b)
+        again, a, b = again[on_one], a[on_one], b[on_one]
+        if len(again):
+            far = again[_surface_far(mesh, a, b, CONTACT_RATIO * span[again] + offset[i[again]] + offset[j[again]])]
+            if len(far):
+                out[_piece_contacts(c, r, pairs, far, out)] = True
     if len(between):
         out[_piece_contacts(c, r, pairs, between, out)] = True
     return out
+
+
+def _nearest_corners(surface, c: np.ndarray, spheres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """([S] vertex, [S] gap): for each of ``spheres`` (indices into the centres ``c`` [S, 3]), the corner of the
+    triangle holding its nearest surface point that lies nearest that point, and how far from it (-1 and 0 for
+    the other spheres)."""
+    vertex = np.full(len(c), -1, dtype=np.int64)
+    gap = np.zeros(len(c))
+    if len(spheres):
+        near = surface.nearest(c[spheres])
+        corner = surface.faces[surface.nearest_faces(near)]
+        gaps = np.linalg.norm(surface.vertices[corner] - near[:, None, :], axis=2)
+        vertex[spheres] = corner[np.arange(len(spheres)), np.argmin(gaps, axis=1)]
+        gap[spheres] = gaps.min(axis=1)
+    return vertex, gap
 
 
 def _surface_far(mesh, a: np.ndarray, b: np.ndarray, limit: np.ndarray) -> np.ndarray:
