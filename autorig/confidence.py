@@ -19,6 +19,10 @@ feet       the mesh's toes behind its shins (``toes_forward``), as under a rig m
 sides      a mirror pair near the trunk (shoulders and elbows, hips and knees: ``SIDE_DEPTH``) each on the
            other's side, as when an arm's chain crossed to the other arm: 0.5 for each such pair. Hands and
            feet may cross (arms folded, legs crossed); elbows and knees do not
+reach      an arm or leg whose chain (shoulder to wrist, hip to toe) is far shorter than the template's, as when
+           a hand that touches the body (hands on the hips, on the thighs of a seated figure) hid the limb's
+           end and the chain ended at a bump near the shoulder: the product over the side chains of
+           1 / (1 + (LIMB_SHORT / length ratio)^12); legs read off the mesh do not count
 =========  =========================================================================================
 
 Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
@@ -35,7 +39,7 @@ wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wr
 right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
 never lower it. The model's probability is then multiplied by the fit, limbs, extra, search, feet and sides parts
 (``beyond_calibration``): the failures those stand for are ones no calibration rig shows, so the model cannot
-have learned them. ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
+have learned them (``reach`` too). ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
 from __future__ import annotations
 
@@ -84,6 +88,13 @@ SIDE_MARGIN = 0.02
 # its shins at all (0.000 each); the mannequins rigged facing backwards, 0.037-0.047. The calibrated model
 # weighs it too, but on too few backwards rigs: an A-posed mannequin rigged facing backwards scored 0.64.
 FEET_BEHIND_SCALE = 0.02
+# ``reach``: a side limb's chain this fraction of the template's length scores 1/2, falling steeply below
+# (power 12: 0.33 -> 0.09, 0.47 -> 0.87, 0.6 -> 0.99). Over the 81 rest-pose bipeds of benchmarks/stability.py
+# every arm and leg chain is 0.69-1.9 of the template's; over the 74 corpus and shared bipeds re-posed by
+# benchmarks/poses.py --all (seven poses, 518 rigs, default convention, c502ed3), the 484 right ones 0.47 or more
+# but for one (0.31, a wrist 14 % of the height off), while 11 of the 34 wrong ones (hands on the hips, a
+# seated figure's hands on its thighs: wrists at the shoulders or the head) had an arm at 0.26-0.47.
+LIMB_SHORT = 0.4
 
 
 def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embedding, template: Template,
@@ -126,6 +137,7 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         "search": 1.0 if embedding.optimal else 0.8,
         "sides": 0.5 ** len(crossed_pairs(joints, template)),
         "feet": 1.0 / (1.0 + (max(-toes, 0.0) / FEET_BEHIND_SCALE) ** 2),
+        "reach": reach_part(joints, template),
     }
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
@@ -145,7 +157,49 @@ def beyond_calibration(parts: dict, free_per_bone: float) -> float:
     this). The fit is taken without the direction term, like the model's cost (a T pose is no failure). On the
     corpus's cross-validated biped rigs it moves no confidence by more than 0.01."""
     return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"]
-                 * parts.get("sides", 1.0) * parts.get("feet", 1.0))
+                 * parts.get("sides", 1.0) * parts.get("feet", 1.0) * parts.get("reach", 1.0))
+
+
+def side_chains(template: Template) -> list[list[int]]:
+    """The template's side limbs as chains of joints from the first off the mid-plane (a shoulder, a hip) down
+    its single line of joints with bones (to a wrist, a toe), without the legs read off the mesh
+    (``readoff.legs``, whose lengths are the animal's own)."""
+    mirror = template.mirror_of()
+    kids = [[] for _ in template.names]
+    for j, p in enumerate(template.parents):
+        if p >= 0 and not template.is_tip(j):
+            kids[int(p)].append(j)
+    read = set()
+    if template.legs:
+        from .readoff.legs import legs_of
+        read = {j for chain in legs_of(template) for j in chain}
+    chains = []
+    for j, p in enumerate(template.parents):
+        if mirror[j] == j or (p >= 0 and mirror[int(p)] != int(p)) or template.is_tip(j) or j in read:
+            continue
+        chain = [j]
+        while len(kids[chain[-1]]) == 1:
+            chain.append(kids[chain[-1]][0])
+        if len(chain) > 1:
+            chains.append(chain)
+    return chains
+
+
+def chain_ratios(joints: np.ndarray, template: Template) -> list[tuple[list[int], float]]:
+    """(chain, its length in ``joints`` [J, 3] over the template's) of each of ``side_chains``."""
+    out = []
+    for chain in side_chains(template):
+        rig = np.linalg.norm(np.diff(joints[chain], axis=0), axis=1).sum()
+        ref = np.linalg.norm(np.diff(template.positions[chain], axis=0), axis=1).sum()
+        if ref > 1e-9:
+            out.append((chain, float(rig / ref)))
+    return out
+
+
+def reach_part(joints: np.ndarray, template: Template) -> float:
+    """The ``reach`` part: 1 / (1 + (LIMB_SHORT / ratio)^12) over the side chains' ``chain_ratios``."""
+    return float(np.prod([1.0 / (1.0 + (LIMB_SHORT / max(ratio, 1e-9)) ** 12)
+                          for _, ratio in chain_ratios(joints, template)]))
 
 
 def crossed_pairs(joints: np.ndarray, template: Template) -> list[tuple[int, int]]:

@@ -3,7 +3,7 @@
 The confidence (``autorig.confidence``) is read, never changed. With a calibrated model (a learned template's
 ``ConfidenceModel``), each feature moves the model's log-odds by ``coef * (x - mean) / scale``; the ones that
 move it down most (below the calibration rigs' average) are the reasons, together with the factors the model's
-probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet), each counted by how much it
+probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet, reach), each counted by how much it
 moves the log-odds of the final number. Without a model the confidence is a product of parts, and each part
 ``p < 1`` pulls it down by ``log p``. Each reason names the joints it is about where the rig says which
 ("left knee / right knee: not mirror images where the mesh is (9% of the height apart)").
@@ -53,6 +53,7 @@ def confidence_reasons(field, graph, embedding, template, joints: np.ndarray, pa
         for name in ("limbs", "extra", "search"):
             pulls[name] += _factor_pull(confidence, parts[name])
         pulls["sides"] = _factor_pull(confidence, parts.get("sides", 1.0))
+        pulls["reach"] = _factor_pull(confidence, parts.get("reach", 1.0))
         pulls["feet_behind"] += _factor_pull(confidence, parts.get("feet", 1.0))
         pulls["_values"] = values     # not a pull: what the words quote
     values = pulls.pop("_values", {})
@@ -108,6 +109,11 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         pairs = crossed_pairs(joints, template)
         named = " and ".join(f"{_said(template.names[i])} / {_said(template.names[j])}" for i, j in pairs[:2])
         return f"{named or 'left and right'}: each on the other's side of the body (a limb's chain crossed over)"
+    if name == "reach":
+        from .confidence import chain_ratios
+        chain, ratio = min(chain_ratios(joints, template), key=lambda item: item[1])
+        return f"{_said(template.names[chain[0]])} to {_said(template.names[chain[-1]])}: {ratio:.1f}x the " \
+               f"template's length (a hand or foot that touches the body can hide the limb's end)"
     if name == "cost_per_bone":
         return "bones: far from the template's lengths and directions"
     if name == "facing":

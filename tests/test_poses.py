@@ -248,6 +248,49 @@ def test_elbows_on_each_others_side_make_a_rig_doubtful_and_say_so():
     assert "left elbow / right elbow" in words and "other's side" in words
 
 
+
+def test_an_arm_far_shorter_than_the_templates_makes_a_rig_doubtful_and_says_which():
+    """Hands on the hips or on a seated figure's thighs can hide an arm's end: its chain then ends at a bump by
+    the shoulder, 0.3 of the template's length (posed 0 A.D. and MakeHuman bodies, wrists by the head,
+    confidence 0.8). The ``reach`` part counts such a chain; the template's own proportions, and a quadruped's
+    legs (read off the mesh, their lengths the animal's own), count for nothing."""
+    from autorig.confidence import beyond_calibration, reach_part
+    from autorig.explain import _words
+    template = load_template("biped")
+    names = list(template.names)
+    joints = template.positions.copy()
+    assert reach_part(joints, template) > 0.99
+    shoulder = joints[names.index("left_shoulder")].copy()
+    for n in ("left_elbow", "left_wrist", "left_hand_end"):
+        joints[names.index(n)] = shoulder + 0.3 * (joints[names.index(n)] - shoulder)
+    reach = reach_part(joints, template)
+    assert reach < 0.1
+    parts = {"limbs": 1.0, "extra": 1.0, "search": 1.0}
+    assert beyond_calibration({**parts, "reach": reach}, 0.1) < 0.5
+    words = _words("reach", None, None, None, template, joints, parts, {})
+    assert "left shoulder to left wrist" in words and "0.3x" in words
+    quadruped = load_template("quadruped")
+    assert reach_part(quadruped.positions * [1, 0.3, 1], quadruped) == 1.0
+
+
+BOUDICCA_TUNIC = ROOT.parent / "shared" / "data" / "train" / "0ad_f_armor_tunic_short_boudicca"
+
+
+@pytest.mark.skipif(not BOUDICCA_TUNIC.exists(), reason="shared data (../shared/data) is not present")
+def test_hands_on_the_hips_that_hide_the_arms_ends_give_no_trusted_wrong_rig(tmp_path):
+    """0 A.D.'s Boudicca in her short tunic with her hands on her hips: the hands are no ends of the shape, and
+    both arm chains ended at the shoulders (wrists 17 % of the height off) at confidence 0.82. A rig is right
+    here, or it says it is doubtful."""
+    import autorig
+    from poses import write_posed
+    folder = write_posed(BOUDICCA_TUNIC, "hands on hips", tmp_path)
+    meta = json.loads((folder / "joints.json").read_text())
+    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
+    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    assert verdict["structure"] or rig.info["confidence"] < 0.5, (verdict["wrong"], rig.info["confidence"])
+    if not verdict["structure"]:
+        assert any("the template's length" in r for r in rig.info["confidence_reasons"])
+
 def test_the_symmetry_reason_names_the_pair_that_is_off_where_the_mesh_is_symmetric():
     """The symmetry part weighs each pair's mismatch by how much the mesh about it is its own mirror image; its
     reason in words names the pair it counts most against. In a stride the ankles are far from mirror images,
