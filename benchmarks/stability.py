@@ -17,6 +17,10 @@ shared rigged characters and meshes whose axes are known, every biped and four-l
 (``shared/data/train``, and ``CORPUS``'s MakeHuman and Lugaru bodies), each with the template its category
 calls for and its axes given (``--detected``: axes detected in every rig, turned variants included).
 Rigs run in this process (no start-up per rig); one character takes 10-30 s with the default variants.
+
+``--posed "arms bent,idle"``: instead, every biped example the shipped biped learns from re-posed as
+``benchmarks/poses.py`` poses it (through its artist's weights; any of ``poses.POSES``), each pose a character
+of its own (``NAME (pose)``), with its axes given.
 """
 from __future__ import annotations
 
@@ -152,13 +156,45 @@ def main(argv=None) -> int:
     parser.add_argument("--detected", action="store_true", help="axes detected in every rig")
     parser.add_argument("--limit", type=float, default=0.5, help="largest move allowed, %% of the height")
     parser.add_argument("--json", type=Path, help="write every row here")
+    parser.add_argument("--posed", type=lambda s: [p.strip() for p in s.split(",") if p.strip()],
+                        help="comma-separated poses of benchmarks/poses.py: the bipeds re-posed, not at rest")
     args = parser.parse_args(argv)
 
     wanted = args.only.split(",") if args.only else None
+    if args.posed:
+        import tempfile
+        with tempfile.TemporaryDirectory() as scratch:
+            return run(args, posed_characters(args.shared, args.corpus, args.posed, wanted, Path(scratch)))
     found = [c for c in characters(args.shared, args.corpus)
              if (wanted is None or any(w in c[0] for w in wanted))
              and not (args.skip_corpus and not str(c[1]).startswith(str(args.shared / "data" / ("meshes" if
                                                                   "meshes" in str(c[1]) else "rigged"))))]
+    return run(args, found)
+
+
+def posed_characters(shared: Path, corpus: Path, poses: list[str], wanted, out: Path) -> list:
+    """(name, obj path, "biped", up, front) of every biped example re-posed in each of ``poses``, written
+    under ``out``."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from poses import POSES, characters as biped_examples, write_posed
+    unknown = [p for p in poses if p not in POSES]
+    if unknown:
+        raise SystemExit(f"unknown poses {unknown}: of {', '.join(POSES)}")
+    found = []
+    for folder in biped_examples(shared, corpus, True):
+        for pose in poses:
+            name = f"{folder.name} ({pose})"
+            if wanted is not None and not any(w in name for w in wanted):
+                continue
+            posed = write_posed(folder, pose, out / f"{folder.name}_{pose.replace(' ', '_')}")
+            meta = json.loads((posed / "joints.json").read_text())
+            found.append((name, posed / "mesh.obj", "biped", meta.get("up_axis", "+y").lstrip("+"),
+                          meta.get("front_axis", "+z").lstrip("+")))
+    return found
+
+
+def run(args, found) -> int:
+    """Measure each of ``found`` (name, path, template, up, front), print the table, write ``--json``."""
     table, over = {}, []
     print(f"{'character':40s} {'template':9s} {'worst move % (joint, variant)':s}")
     for name, path, template, up, front in found:
