@@ -185,6 +185,42 @@ def test_working_copy_keeps_input_order():
     np.testing.assert_allclose(prepared.work_vertices, prepared.vertices, atol=1e-9)
 
 
+
+def test_working_copy_welds_a_seam_a_rounding_error_pulled_apart():
+    """A seam's two copies of a vertex moved apart by a re-export's rounding (up to 2e-6 of the height) are still
+    one working vertex, at their mean; copies farther apart than WELD stay two."""
+    V, F = tetrahedron()
+    corners = V[F].reshape(-1, 3)
+    height = float(np.ptp(corners[:, 1]))
+    pulled = corners + np.random.default_rng(0).uniform(-1e-6, 1e-6, corners.shape) * height
+    prepared = prepare(pulled, np.arange(12).reshape(4, 3))
+    assert len(prepared.work_vertices) == 4 and len(prepared.work_faces) == 4
+    for k in range(4):      # each working vertex at the mean of its copies, in the canonical frame
+        copies = prepared.vertices[prepared.work_index == k]
+        assert len(copies) == 3
+        np.testing.assert_allclose(prepared.work_vertices[k], copies.mean(axis=0), atol=2e-9)
+    apart = corners.copy()
+    apart[0] += [1e-3 * height, 0, 0]
+    assert len(prepare(apart, np.arange(12).reshape(4, 3)).work_vertices) == 5
+
+
+SOFIA = Path(__file__).resolve().parents[2] / "shared" / "data" / "more" / "assetcoop_sofia" / "model.glb"
+
+
+@pytest.mark.skipif(not SOFIA.exists(), reason="shared data (../shared/data) is not present")
+def test_a_gltf_character_whose_seams_a_rounding_error_pulled_apart_gets_the_same_rig():
+    """A glTF repeats a vertex at each seam (the held-out Sofia: 1,539 vertices at 691 places). Moved by
+    +-1e-6 of the height each, the copies no longer met and every seam opened: her joints moved up to 30 % of
+    her height. Welded within WELD, the rig is the one she had."""
+    import autorig
+    V, F = load_mesh(SOFIA)
+    height = float(np.ptp(V, axis=0).max())
+    base = autorig.rig((V, F), "biped", autorig.RigOptions(up="y", front="z"))
+    noisy = V + np.random.default_rng(0).uniform(-1e-6, 1e-6, V.shape) * height
+    other = autorig.rig((noisy, F), "biped", autorig.RigOptions(up="y", front="z"))
+    moved = np.linalg.norm(np.asarray(other.joints) - np.asarray(base.joints), axis=1) / height
+    assert moved.max() < 0.005
+
 def open_tube(radius: float, length: float, centre, closed_end: bool) -> trimesh.Trimesh:
     """A cylinder along y, facing outward, with its top end open (and its bottom too unless ``closed_end``)."""
     tube = trimesh.creation.cylinder(radius=radius, height=length, sections=16,
@@ -570,3 +606,18 @@ def test_spread_picks_the_points_the_row_by_row_reference_picks(seed):
     points = np.round(points, 1 + seed % 2)                     # and many points sharing coordinates
     for count in (50, 300, 2000):
         assert np.array_equal(spread(points, count), _spread_by_rows(points, count))
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_a_stray_vertex_far_away_is_a_clear_error_not_a_crash(axis):
+    """One vertex some 30,000 heights away left no cell edge inside the body: the medial samples crashed on
+    nothing to join (exit 70, an internal error), to the side or above. Above, welding within 1e-5 of the height
+    (which that vertex now is) merges the body to nothing. Each is one clear error now, exit 2 or 5."""
+    import autorig
+    from autorig.samples import mannequin
+    sample = mannequin(resolution=24)
+    V = sample.vertices.copy()
+    V[0, axis] = 49562.0        # a fuzzed file's "-0.49562" lost its "-0."; the mannequin is 1.7 tall
+    with pytest.raises(AutorigError) as error:
+        autorig.rig((V, sample.faces), "biped", autorig.RigOptions())
+    assert error.value.exit_code in (2, 5)

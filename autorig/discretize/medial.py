@@ -11,9 +11,8 @@ either, and an edge at it turn past the threshold or not: such an end is read th
 crossing only the farther one gives counts with a weight that is 1 while the two parts are tied to within
 what a re-export's rounding can change and fades to 0 soon after (``_Ties``).
 
-Spheres are then packed greedily, largest first, keeping a sphere only if its centre lies in no sphere kept
-before. Few large spheres fill the torso, chains of small ones fill the limbs: the graph built on them is
-small but still follows every limb.
+Spheres are then packed greedily, largest first, keeping a sphere only if its centre lies in no sphere kept before.
+Few large spheres fill the torso, chains of small ones the limbs: the graph on them is small but follows every limb.
 """
 from __future__ import annotations
 
@@ -25,8 +24,7 @@ from ..input.facing import unique_ints
 from .distance import CORNERS, DistanceField, grid_index, grid_number
 
 # Pairs of CORNERS indices that differ along exactly one axis: the 12 edges of a cell.
-EDGES = np.array([(a, b) for a in range(8) for b in range(a + 1, 8)
-                  if np.abs(CORNERS[a] - CORNERS[b]).sum() == 1])
+EDGES = np.array([(a, b) for a in range(8) for b in range(a + 1, 8) if np.abs(CORNERS[a] - CORNERS[b]).sum() == 1])
 EDGE_AXIS = np.argmax(CORNERS[EDGES[:, 1]] - CORNERS[EDGES[:, 0]], axis=1)   # [12] the axis each edge runs along
 
 
@@ -56,6 +54,8 @@ def medial_samples(field: DistanceField, min_angle_degrees: float = 70.0) -> Med
     # Only edges with both ends inside can cross the medial surface; the leaves know their corners' depths.
     inside_corner = field.leaf_values > 0                                            # [C, 8]
     leaf, edge = np.nonzero(inside_corner[:, EDGES[:, 0]] & inside_corner[:, EDGES[:, 1]])
+    if not len(leaf):   # no edge inside (a mesh lost in its own box, a stray vertex far away): no samples
+        return MedialSamples(points=np.zeros((0, 3)), radii=np.zeros(0), weights=np.zeros(0))
     # Neighbouring leaves of one size share edges: count each once. An edge is its first corner's number on the
     # finest grid, its axis and its length (its leaf's level), packed into one integer. Gathered per edge as
     # such 1-D numbers rather than [N, 3] rows: the edges number ~300k at 20k faces.

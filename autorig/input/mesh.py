@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import AutorigError, InputError
 from .facing import face_cross, outward, used_vertices
+from .working import working_copy
 from .limits import MAX_FACES, check_faces, check_file_size, read_regular
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
 
@@ -204,35 +205,6 @@ def _check_solid(V: np.ndarray, F: np.ndarray, bad) -> None:
                   "3D surface that encloses a volume")
 
 
-def _first_occurrences(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Group identical rows of ``rows`` [N, K]. Returns (first [G] ascending index of the first row of each
-    group, group [N] the group of each row, groups numbered in order of their first row)."""
-    order = np.lexsort(rows.T[::-1])  # stable, so each run of equal rows lists its first row first
-    sorted_rows = rows[order]
-    starts = np.ones(len(rows), dtype=bool)
-    starts[1:] = np.any(sorted_rows[1:] != sorted_rows[:-1], axis=1)
-    run = np.cumsum(starts) - 1
-    first_of_run = order[starts]
-    rank = np.empty(len(first_of_run), dtype=np.int64)
-    rank[np.argsort(first_of_run)] = np.arange(len(first_of_run))
-    group = np.empty(len(rows), dtype=np.int64)
-    group[order] = rank[run]
-    return np.sort(first_of_run), group
-
-
-def _first_triangles(G: np.ndarray, n: int) -> np.ndarray:
-    """[K] ascending indices of the first of each set of triangles of G [G, 3] (over n vertices) with the same
-    corners, in any order: ``_first_occurrences(np.sort(G, axis=1))[0]``, by one integer key per triangle when
-    n^3 fits in 63 bits (a 1M-face mesh: 0.07 s instead of 0.24 s)."""
-    S = np.sort(G, axis=1)
-    if n >= 2 ** 21:
-        return _first_occurrences(S)[0]
-    key = (S[:, 0] * n + S[:, 1]) * n + S[:, 2]
-    return np.sort(np.unique(key, return_index=True)[1])   # np.unique's index: each key's first occurrence
-
-
-# ----------------------------------------------------------------------------------------------- canonical frame
-
 _AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -409,7 +381,10 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
     if not np.isfinite(scale) or not np.isfinite(canonical).all():
         raise InputError(f"{name}: vertex coordinates span too large a range to work with")
 
-    work_vertices, work_faces, work_index = _working_copy(V, F, canonical)
+    work_vertices, work_faces, work_index = working_copy(V, F, canonical, AREA_TOLERANCE)
+    if not len(work_faces):     # a body welded to nothing: a stray vertex a hundred thousand heights away
+        raise InputError(f"{name}: after merging coincident vertices and dropping degenerate triangles, no "
+                         f"triangle is left (is one vertex far away from the rest?)")
     work_faces = outward(work_vertices, work_faces)
     _check_solid(work_vertices, work_faces,
                  lambda problem: InputError(f"{name}: after merging coincident vertices and dropping "
@@ -421,23 +396,6 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
                         up=up, front=front, height=height)
 
 
-def _working_copy(V: np.ndarray, F: np.ndarray, canonical: np.ndarray):
-    """The cleaned mesh for discretisation: (work_vertices [W, 3], work_faces [G, 3], work_index [V]).
-
-    Vertices are merged only when their input coordinates are bit-identical (after -0.0 -> 0.0): that is
-    what seams and STL corners produce, and it never joins parts that merely come close.
-    """
-    first, merged = _first_occurrences(V + 0.0)   # merged [V]: merged index of each input vertex
-    # Rounded to 1e-9 of the height: the same mesh at another scale or offset then gives bit-identical
-    # working vertices, so choices that hinge on ties (decimation of a marching-cubes mesh) come out the same.
-    positions = np.round(canonical[first], 9)      # [M, 3]
-    G = merged[F]
-    area = 0.5 * np.linalg.norm(face_cross(positions, G), axis=1)
-    keep = (G[:, 0] != G[:, 1]) & (G[:, 1] != G[:, 2]) & (G[:, 0] != G[:, 2]) & (area > AREA_TOLERANCE)
-    G = G[keep]
-    G = G[_first_triangles(G, len(positions))]
-    used, renumber = used_vertices(len(positions), G)
-    return positions[used], renumber[G], renumber[merged]
 
 
 def spread(points: np.ndarray, count: int) -> np.ndarray:
