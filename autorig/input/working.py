@@ -62,7 +62,10 @@ def _near_groups(points: np.ndarray, within: float) -> np.ndarray | None:
     """[N] the group of each of ``points`` [N, 3] when some lie within ``within`` of one another (groups joined
     through such pairs, numbered in the order of their first point), or None when no two do."""
     from scipy.spatial import cKDTree
-    pairs = cKDTree(points).query_pairs(within, output_type="ndarray")
+    # Coordinates past 1e100 (a stray vertex a file put at 1e154) would overflow the tree's squared distances;
+    # such points are no seam's copies (bit-identical ones are merged already), so they are left alone.
+    near = np.flatnonzero(np.abs(points).max(axis=1, initial=0.0) < 1e100)
+    pairs = near[cKDTree(points[near]).query_pairs(within, output_type="ndarray")] if len(near) else []
     if not len(pairs):
         return None
     from scipy.sparse import coo_matrix
