@@ -41,6 +41,16 @@ def character():
     return meta, sample.vertices, weights
 
 
+
+def rig_posed(character: Path, pose: str, folder: Path):
+    """(rig, poses.score_ends' verdict) of a shared character re-posed as ``pose`` (its axes: y up, z front)."""
+    import autorig
+    from poses import write_posed
+    posed = write_posed(character, pose, folder)
+    meta = json.loads((posed / "joints.json").read_text())
+    rig = autorig.rig(posed / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
+    return rig, score_ends(meta, list(rig.names), np.asarray(rig.joints))
+
 @pytest.mark.parametrize("pose", list(POSES))
 def test_a_posed_mannequin_keeps_its_vertices_and_bones_and_points_them_as_asked(pose):
     meta, vertices, weights = character()
@@ -131,12 +141,7 @@ def test_hands_that_meet_in_front_of_the_chest_stay_two_hands(tmp_path):
     where his hands meet, the inside runs from one into the other, and the sphere graph joined them into one
     limb end; the second hand's chain went to the top of the head (wrists 19 % of the height off). Edges
     across a contact (a pinched segment between surface points far apart over the mesh) are cut."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(VERCINGETORIX, "arms bent", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(VERCINGETORIX, "arms bent", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "head")) < 8.0
 
@@ -151,12 +156,7 @@ def test_hands_on_arm_pieces_of_their_own_that_meet_stay_two_hands(tmp_path):
     edges between the hands: one limb end for both, and both arm chains went to the corners of his tunic at
     the hips (a wrist 37.8 % of the height off, confidence 0.27). An edge between pieces that closes a loop
     through the body is cut."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(IBERIAN, "arms bent", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(IBERIAN, "arms bent", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "left_elbow", "right_elbow")) < 8.0
     assert rig.info["confidence"] >= 0.5
@@ -172,12 +172,7 @@ def test_hands_resting_on_the_hips_end_the_arms(tmp_path):
     climbed from there up the arm to the shoulder, behind where the arm's chain starts, and the arm's joints,
     spread along the path to that tip, put both wrists at the neck (23.6 % off, confidence 0.87). A tip read
     behind its limb's start is not the limb's end: the chain ends at its path's end, the hand."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(JAVELINIST, "hands on hips", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(JAVELINIST, "hands on hips", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist", "left_elbow", "right_elbow")) < 8.0
 
@@ -194,12 +189,7 @@ def test_hands_pressed_into_the_hips_of_a_one_piece_body_end_the_arms(tmp_path):
     checked): the arms were loops through the hips with no hand end, their chains ended at bumps by the
     shoulders, both wrists by the head (20.1 % of the height off, confidence 0.84). Around a contact, the edges
     next to a cut one are checked again without the pinch, and cut where they close a long loop."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(GAUL_JAVELINIST, "hands on hips", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(GAUL_JAVELINIST, "hands on hips", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][n] for n in ("left_wrist", "right_wrist")) < 15.0
 
@@ -214,12 +204,7 @@ def test_a_raised_arm_whose_box_runs_into_the_torso_keeps_its_shoulder(tmp_path)
     every edge at that shoulder is as far over the surface (a box's corners lie far from the nearest points),
     but without them nothing joins the arm to the body: an attachment, kept (cutting them all, a first version
     lost the arm: its wrist 17 % of the height off)."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(RIGGED_FIGURE, "arm raised", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(RIGGED_FIGURE, "arm raised", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][n] for n in ("left_wrist", "left_elbow")) < 8.0
 
@@ -281,12 +266,7 @@ def test_hands_on_the_hips_that_hide_the_arms_ends_give_no_trusted_wrong_rig(tmp
     """0 A.D.'s Boudicca in her short tunic with her hands on her hips: the hands are no ends of the shape, and
     both arm chains ended at the shoulders (wrists 17 % of the height off) at confidence 0.82. A rig is right
     here, or it says it is doubtful."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(BOUDICCA_TUNIC, "hands on hips", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(BOUDICCA_TUNIC, "hands on hips", tmp_path)
     assert verdict["structure"] or rig.info["confidence"] < 0.5, (verdict["wrong"], rig.info["confidence"])
     if not verdict["structure"]:
         assert any("the template's length" in r for r in rig.info["confidence_reasons"])
@@ -382,12 +362,7 @@ def test_hands_turned_inward_in_front_of_the_chest_keep_their_arms_in_place(tmp_
     direction term turned the hands, which her paths run inward, out toward the template's rest pose, and
     dragged the forearms with them: elbows 9-10 % of the height off, wrists 7 %, confidence 0.28. The term now
     leans toward a bone's path where the path points more than 90 degrees from the template."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(BOUDICCA, "arms bent", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(BOUDICCA, "arms bent", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][f"{s}_{j}"] for s in ("left", "right") for j in ("elbow", "wrist")) < 6.0
     assert rig.info["confidence"] >= 0.5
@@ -402,12 +377,7 @@ def test_a_spearman_in_a_stride_keeps_his_hand_off_the_spear_point(tmp_path):
     through his right fist: the right hand's tip was climbed up the shaft to the spear's point, half his height
     away, and the arm's joints spread along the path to it put the wrist 18 % of the height off and the rig at
     confidence 0.03. A held stick is not the hand's end (``readoff.tips``)."""
-    import autorig
-    from poses import write_posed
-    folder = write_posed(SPEARMAN, "stride", tmp_path)
-    meta = json.loads((folder / "joints.json").read_text())
-    rig = autorig.rig(folder / "mesh.obj", "biped", autorig.RigOptions(up="y", front="z"))
-    verdict = score_ends(meta, list(rig.names), np.asarray(rig.joints))
+    rig, verdict = rig_posed(SPEARMAN, "stride", tmp_path)
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][f"{s}_{j}"] for s in ("left", "right") for j in ("elbow", "wrist")) < 6.0
     assert rig.info["confidence"] >= 0.5

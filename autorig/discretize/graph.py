@@ -255,7 +255,10 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
         beside[j[touched[i]]] = True
         again = np.flatnonzero(beside[i] & beside[j] & ~out & (least < NEAR_PINCH * np.minimum(r[i], r[j]))
                                & (span <= NEAR_SPAN))
-        vertex, offset = _nearest_corners(surface, c, unique_ints(pairs[again].ravel()))
+        todo = unique_ints(pairs[again].ravel())
+        todo = todo[vertex[todo] < 0]            # the spheres the first test did not read yet
+        more_vertex, more_offset = _nearest_corners(surface, c, todo)
+        vertex[todo], offset[todo] = more_vertex[todo], more_offset[todo]
         a, b = vertex[i[again]], vertex[j[again]]
         on_one = (piece[a] == piece[b]) & (a != b)
         again, a, b = again[on_one], a[on_one], b[on_one]

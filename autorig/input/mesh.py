@@ -23,9 +23,9 @@ import numpy as np
 
 from ..errors import AutorigError, InputError
 from .facing import face_cross, outward, used_vertices
-from .working import working_copy
 from .limits import MAX_FACES, check_faces, check_file_size, read_regular
 from .mesh_files import FORMATS, as_text, check_header, load_with_trimesh, parse_obj, parse_off
+from .working import working_copy
 
 # A mesh whose points all lie within this fraction of its size from one plane is a 2D cut-out.
 FLAT_TOLERANCE = 1e-6
@@ -204,6 +204,8 @@ def _check_solid(V: np.ndarray, F: np.ndarray, bad) -> None:
         raise bad("the mesh is flat (all its vertices lie in one plane, like a 2D cut-out); autorig needs a "
                   "3D surface that encloses a volume")
 
+
+# ----------------------------------------------------------------------------------------------- canonical frame
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -394,8 +396,6 @@ def prepare(vertices, faces, up: str = "y", front: str = "z", name: str = "mesh"
     return PreparedMesh(vertices=canonical, faces=F, work_vertices=work_vertices, work_faces=work_faces,
                         work_index=work_index, rotation=rotation, offset=offset, scale=scale,
                         up=up, front=front, height=height)
-
-
 
 
 def spread(points: np.ndarray, count: int) -> np.ndarray:
