@@ -21,6 +21,34 @@ def test_a_thin_part_joined_at_one_side_pulls_the_middle_little_and_a_point_outs
     assert chord_middle(trunk, np.array([0.9, 0, 0]), -2, 2) is None
 
 
+def test_a_joint_near_the_surface_is_centred_the_less_the_nearer_it_lies_never_at_a_switch():
+    """A mid-plane joint pulled to the skin was centred or not as a rounding error fell (a seated body's head:
+    3 % of the height to one side). Now: at the surface it stays, once it lies as deep as its way to the
+    chord's middle is long it goes all the way, and in between a hair deeper moves it by about a hair."""
+    from autorig.readoff.midline import SAMPLES, centred
+    from autorig.template import load_template
+
+    template = load_template("biped")
+    head = template.names.index("head")
+    vertices = np.array([[-0.1, 0.0, 0.0], [0.5, 1.0, 0.0]])       # the box: x in [-0.1, 0.5], height 1
+    depth = lambda p: 0.3 - np.abs(p[:, 0] - 0.2)                    # noqa: E731 - chord middle at x = 0.2
+    step = (0.6 + 2 * 0.02 * 0.6) / (SAMPLES - 1)
+
+    def head_x(d):
+        """The head's x after centring, placed at depth ``d`` on the chord's right half (0.3 - d from its
+        middle)."""
+        joints = np.array(template.positions, float)
+        joints[head] = [0.5 - d, 0.8, 0.0]
+        return centred(joints, template, depth, vertices)[head, 0]
+
+    assert head_x(0.5 * step) == 0.5 - 0.5 * step                    # at the surface: left where it is
+    assert abs(head_x(0.16) - 0.2) < 1e-6                            # as deep as its way is long: the middle
+    xs = [head_x(d) for d in np.linspace(0.5 * step, 0.16, 41)]
+    assert all(a >= b for a, b in zip(xs, xs[1:]))                   # the deeper, the nearer the middle
+    for d in np.linspace(0.5 * step, 0.16, 17):
+        assert abs(head_x(d + 1e-6) - head_x(d)) < 1e-5, d
+
+
 def test_a_symmetric_body_gets_its_mid_plane_joints_on_its_mid_plane_under_noise():
     from autorig.samples import mannequin
     sample = mannequin("a", resolution=64)
