@@ -10,14 +10,15 @@ weigh nothing, so the middle moves as little as the surface does). A symmetric b
 mid-plane; a tail swung to one side keeps its own middle. A joint at the surface has no chord of its own to
 read (outside, which run to take would be a choice): there it stays as it is, and deeper it is moved the more
 of the way to its chord's middle the deeper it lies against the way's length, all of it once it lies as deep
-as the way is long (a seated MakeHuman body's head joint, pulled to the skin, was centred or not as a rounding
-error fell: 3 % of the height to one side).
+as the way is long or ``FULL_DEPTH`` of the height deep (a seated MakeHuman body's head joint, pulled to the
+skin, was centred or not as a rounding error fell: 3 % of the height to one side).
 """
 from __future__ import annotations
 
 import numpy as np
 
 SAMPLES = 257          # samples of the depth along each chord, across the whole box
+FULL_DEPTH = 0.02      # fraction of the height: a joint this deep (past a sample) is centred all the way
 AXIS = 0               # the canonical frame's left-right axis
 
 
@@ -51,6 +52,7 @@ def centred(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.nda
     margin = 0.02 * float(np.ptp(vertices[:, AXIS]))
     lo, hi = float(vertices[:, AXIS].min()) - margin, float(vertices[:, AXIS].max()) + margin
     step = (hi - lo) / (SAMPLES - 1)
+    full = FULL_DEPTH * float(np.ptp(vertices[:, 1]))
     for j in range(len(out)):
         if mirror[j] != j or template.is_tip(j):
             continue
@@ -59,9 +61,10 @@ def centred(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.nda
         if middle is None:
             continue
         # A joint within a sample of the surface may lie outside the chord's samples (no middle to read). Deeper,
-        # it is moved a share of the way that grows with its depth against the way's length: all of it from a
-        # depth as large as the way on, so that a joint a hair deeper moves by little more than a hair.
+        # it is moved a share of the way that grows with its depth against the way's length, so that a joint a
+        # hair deeper moves by little more than a hair; all of it from a depth as large as the way, or FULL_DEPTH
+        # of the height, on (a flattened trunk's mid-plane joint, shallow but far off its middle, is centred).
         way = abs(middle - out[j, AXIS])
-        x = min(inside / way, 1.0) if way > 0 else 1.0
-        out[j, AXIS] += x * x * (3.0 - 2.0 * x) * (middle - out[j, AXIS])
+        x = min(inside / min(way, full), 1.0) if way > 0 else 1.0
+        out[j, AXIS] = middle if x == 1.0 else out[j, AXIS] + x * x * (3.0 - 2.0 * x) * (middle - out[j, AXIS])
     return out
