@@ -185,7 +185,6 @@ def test_working_copy_keeps_input_order():
     np.testing.assert_allclose(prepared.work_vertices, prepared.vertices, atol=1e-9)
 
 
-
 def test_working_copy_welds_a_seam_a_rounding_error_pulled_apart():
     """A seam's two copies of a vertex moved apart by a re-export's rounding (up to 2e-6 of the height) are still
     one working vertex, at their mean; copies farther apart than WELD stay two."""
@@ -220,6 +219,7 @@ def test_a_gltf_character_whose_seams_a_rounding_error_pulled_apart_gets_the_sam
     other = autorig.rig((noisy, F), "biped", autorig.RigOptions(up="y", front="z"))
     moved = np.linalg.norm(np.asarray(other.joints) - np.asarray(base.joints), axis=1) / height
     assert moved.max() < 0.005
+
 
 def open_tube(radius: float, length: float, centre, closed_end: bool) -> trimesh.Trimesh:
     """A cylinder along y, facing outward, with its top end open (and its bottom too unless ``closed_end``)."""

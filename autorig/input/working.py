@@ -89,8 +89,3 @@ def _first_triangles(G: np.ndarray, n: int) -> np.ndarray:
         return _first_occurrences(S)[0]
     key = (S[:, 0] * n + S[:, 1]) * n + S[:, 2]
     return np.sort(np.unique(key, return_index=True)[1])   # np.unique's index: each key's first occurrence
-
-
-# ----------------------------------------------------------------------------------------------- canonical frame
-
-_AXES = {"x": 0, "y": 1, "z": 2}
