@@ -23,6 +23,9 @@ reach      an arm or leg whose chain (shoulder to wrist, hip to toe) is far shor
            a hand that touches the body (hands on the hips, on the thighs of a seated figure) hid the limb's
            end and the chain ended at a bump near the shoulder: the product over the side chains of
            1 / (1 + (LIMB_SHORT / length ratio)^12); legs read off the mesh do not count
+forks      a side limb's end (a hand, a foot, a paw) whose chain took the lesser fork of its limb, as when a
+           seated armoured figure's arm chains ended at bumps behind its shoulders and left its hands, by its
+           thighs, without bones (``passed_forks``): FORK_PART for each such end
 =========  =========================================================================================
 
 Without a model, the confidence is their product. A template learned from examples (``autorig learn``)
@@ -39,7 +42,7 @@ wrong (worst joint more than ``BAD_ERROR`` off), so below 0.5 means "probably wr
 right". Each feature can only move it one way: a better fit, more joints inside, a more symmetric rig
 never lower it. The model's probability is then multiplied by the fit, limbs, extra, search, feet and sides parts
 (``beyond_calibration``): the failures those stand for are ones no calibration rig shows, so the model cannot
-have learned them (``reach`` too). ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
+have learned them (``reach`` and ``forks`` too). ``STRICT_THRESHOLD`` is where ``--strict`` stops a pipeline.
 """
 from __future__ import annotations
 
@@ -95,6 +98,12 @@ FEET_BEHIND_SCALE = 0.02
 # but for one (0.31, a wrist 14 % of the height off), while 11 of the 34 wrong ones (hands on the hips, a
 # seated figure's hands on its thighs: wrists at the shoulders or the head) had an arm at 0.26-0.47.
 LIMB_SHORT = 0.4
+# ``forks``: what each side limb end on the lesser fork of its limb multiplies the confidence by (as ``sides``
+# does for each crossed pair). Over the 518 rigs of ``benchmarks/poses.py --all`` (4bc6bec, scratch) the rule
+# finds one such end pair, on a wrong rig (an armoured 0 A.D. body seated, both hands' ends on bumps behind the
+# shoulders: 0.60 -> 0.15), and none on the 488 right rigs nor on the 112 rest-pose characters of
+# ``benchmarks/stability.py``.
+FORK_PART = 0.5
 
 
 def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embedding, template: Template,
@@ -110,8 +119,7 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
     used_spheres = {s for path in embedding.paths for s in path}
     # Only ends that stand out about as much as the template's own limbs count as limbs left unrigged (an
     # octopus's other tentacles), not ears or the bumps of a low-poly model.
-    limb_like = LIMB_LIKE * float(np.median(np.minimum(prominence[placed], 1.0)))
-    unrigged = sorted(s for s in ends - used_spheres if prominence[s] >= limb_like)
+    unrigged = _unrigged_ends(prominence, ends, placed, used_spheres)
     unused_ends = _count_distinct_ends(graph, unrigged, used_spheres)
 
     solid = [j for j in range(len(template.names)) if not template.is_tip(j)]
@@ -138,6 +146,7 @@ def rig_confidence(field: DistanceField, graph: SphereGraph, embedding: Embeddin
         "sides": 0.5 ** len(crossed_pairs(joints, template)),
         "feet": 1.0 / (1.0 + (max(-toes, 0.0) / FEET_BEHIND_SCALE) ** 2),
         "reach": reach_part(joints, template),
+        "forks": FORK_PART ** len(passed_forks(graph, embedding, template)),
     }
     if template.confidence is None:
         return float(np.prod(list(parts.values()))), {k: round(float(v), 3) for k, v in parts.items()}
@@ -157,7 +166,56 @@ def beyond_calibration(parts: dict, free_per_bone: float) -> float:
     this). The fit is taken without the direction term, like the model's cost (a T pose is no failure). On the
     corpus's cross-validated biped rigs it moves no confidence by more than 0.01."""
     return float(_fit_part(free_per_bone) * parts["limbs"] * parts["extra"] * parts["search"]
-                 * parts.get("sides", 1.0) * parts.get("feet", 1.0) * parts.get("reach", 1.0))
+                 * parts.get("sides", 1.0) * parts.get("feet", 1.0) * parts.get("reach", 1.0)
+                 * parts.get("forks", 1.0))
+
+
+def _unrigged_ends(prominence: np.ndarray, ends: set, placed: list[int], used: set) -> list[int]:
+    """The ``ends`` (spheres) off every embedded path (``used``) that stand out at least ``LIMB_LIKE`` as much as
+    the template's limb ends (the ``placed`` spheres; median, prominences above 1 counted as 1), in sphere order:
+    only those count as limbs left unrigged (an octopus's other tentacles), not ears or the bumps of a low-poly
+    model."""
+    limb_like = LIMB_LIKE * float(np.median(np.minimum(prominence[placed], 1.0)))
+    return sorted(s for s in ends - used if prominence[s] >= limb_like)
+
+
+def passed_forks(graph: SphereGraph, embedding: Embedding, template: Template) -> list[int]:
+    """The template's side limb ends (the reduced skeleton's leaves with a mirror image: hands, feet, paws; joint
+    indices, ascending) whose chain took the lesser fork of its limb: an end of the shape left without bones (as
+    ``extra`` counts them: standing out like a limb, farther than ``UNRIGGED_REACH`` from every embedded path)
+    branches off that end's path, and no other's, at least ``PROMINENCE`` before the end's sphere, runs farther
+    from the fork than the end's sphere does, and stands out more. A seated armoured figure: its arm chains went
+    to bumps behind its shoulders (prominence 0.12), its hands (the two most prominent ends of the shape) branch
+    off those paths at the shoulders. A prop held in a hand branches off at the hand (no fork before the end), a
+    horn, an ear or a ponytail off the head (no side limb's path): ``extra`` counts those."""
+    reduced = template.reduced()
+    parents = set(reduced.parents.tolist())
+    mirror = template.mirror_of()
+    prominence = prominences(graph)
+    placed = [int(embedding.spheres[k]) for k in range(len(reduced.joints)) if k not in parents]
+    used = sorted({s for path in embedding.paths for s in path})
+    unrigged = _unrigged_ends(prominence, set(np.flatnonzero(prominence >= PROMINENCE).tolist()), placed,
+                              set(used))
+    holders: dict[int, set[int]] = {}           # sphere -> the reduced joints whose bone's path holds it
+    for k, path in enumerate(embedding.paths[1:], start=1):
+        for s in path:
+            holders.setdefault(int(s), set()).add(k)
+    passed = set()
+    for u in unrigged:
+        gaps = np.asarray(graph.distances[u, used], dtype=float)
+        nearest = int(np.argmin(gaps))
+        fork = used[nearest]
+        if gaps[nearest] <= UNRIGGED_REACH or len(holders.get(fork, ())) != 1:
+            continue
+        (k,) = holders[fork]
+        joint = int(reduced.joints[k])
+        if k in parents or mirror[joint] == joint:
+            continue
+        end = int(embedding.spheres[k])
+        along = float(graph.distances[fork, end])
+        if PROMINENCE <= along < gaps[nearest] and prominence[u] > prominence[end]:
+            passed.add(joint)
+    return sorted(passed)
 
 
 def side_chains(template: Template) -> list[list[int]]:

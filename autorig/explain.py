@@ -54,6 +54,7 @@ def confidence_reasons(field, graph, embedding, template, joints: np.ndarray, pa
             pulls[name] += _factor_pull(confidence, parts[name])
         pulls["sides"] = _factor_pull(confidence, parts.get("sides", 1.0))
         pulls["reach"] = _factor_pull(confidence, parts.get("reach", 1.0))
+        pulls["forks"] = _factor_pull(confidence, parts.get("forks", 1.0))
         pulls["feet_behind"] += _factor_pull(confidence, parts.get("feet", 1.0))
         pulls["_values"] = values     # not a pull: what the words quote
     values = pulls.pop("_values", {})
@@ -114,6 +115,11 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         chain, ratio = min(chain_ratios(joints, template), key=lambda item: item[1])
         return f"{_said(template.names[chain[0]])} to {_said(template.names[chain[-1]])}: {ratio:.1f}x the " \
                f"template's length (a hand or foot that touches the body can hide the limb's end)"
+    if name == "forks":
+        from .confidence import passed_forks
+        ends = [template.names[j] for j in passed_forks(graph, embedding, template)]
+        return f"{', '.join(map(_said, ends[:3])) or 'a limb end'}: at the end of a short fork of the limb (a " \
+               f"longer branch of it has no bones)"
     if name == "cost_per_bone":
         return "bones: far from the template's lengths and directions"
     if name == "facing":

@@ -258,7 +258,89 @@ def test_an_arm_far_shorter_than_the_templates_makes_a_rig_doubtful_and_says_whi
     assert reach_part(quadruped.positions * [1, 0.3, 1], quadruped) == 1.0
 
 
+ARMOURED = ROOT.parent / "shared" / "data" / "train" / "0ad_m_armor_tunic_long_short_sleeves"
 BOUDICCA_TUNIC = ROOT.parent / "shared" / "data" / "train" / "0ad_f_armor_tunic_short_boudicca"
+
+
+def _stick_graph(segments):
+    """A sphere graph of sticks: each segment (start, end) [3] as spheres 0.01 apart along it, the spheres at
+    equal points joined; (graph, {point: sphere})."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import shortest_path
+
+    from autorig.discretize.graph import SphereGraph
+    index, centers, edges = {}, [], []
+
+    def sphere(point):
+        key = tuple(np.round(point, 6))
+        if key not in index:
+            index[key] = len(centers)
+            centers.append(np.array(point, float))
+        return index[key]
+
+    for a, b in segments:
+        a, b = np.array(a, float), np.array(b, float)
+        steps = max(int(round(np.linalg.norm(b - a) / 0.01)), 1)
+        chain = [sphere(a + (b - a) * t / steps) for t in range(steps + 1)]
+        edges += list(zip(chain, chain[1:]))
+    c, e = np.array(centers), np.sort(np.array(edges), axis=1)
+    lengths = np.linalg.norm(c[e[:, 0]] - c[e[:, 1]], axis=1)
+    matrix = coo_matrix((lengths, (e[:, 0], e[:, 1])), shape=(len(c),) * 2).tocsr()
+    distances, predecessors = shortest_path(matrix, directed=False, return_predecessors=True)
+    graph = SphereGraph(centers=c, radii=np.full(len(c), 0.01), edges=e, lengths=lengths, distances=distances,
+                        predecessors=predecessors)
+    return graph, lambda point: index[tuple(np.round(np.array(point, float), 6))]
+
+
+def test_a_hand_end_on_the_lesser_fork_of_its_arm_is_counted_and_said():
+    """A figure of sticks (one unit its height) whose arms fork at the shoulder: a bump up and out, 0.13 long, and
+    the arm down to the hand, 0.4. The biped's hand ends put on the bumps leave the hands without bones, and
+    ``passed_forks`` names both (each halves the confidence: the seated armoured 0 A.D. body of
+    ``benchmarks/poses.py``, 0.60 before); on the hands, none. A stick held in the hand forks at the hand's
+    end, and a horn on the head forks off no side limb: neither counts."""
+    from autorig.confidence import FORK_PART, passed_forks, rig_confidence
+    from autorig.embed.search import Embedding
+    from autorig.explain import _words
+    template = load_template("biped")
+    hips, chest, crown = (0, 0.5, 0), (0, 0.75, 0), (0, 1.0, 0)
+    sticks = [(hips, chest), (chest, crown), (hips, (0.1, 0, 0)), (hips, (-0.1, 0, 0)), ((0, 0.95, 0), (0.3, 1.05, 0))]
+    for x in (0.2, -0.2):
+        shoulder, bump, elbow, hand = (x, 0.75, 0), (1.4 * x, 0.85, 0), (1.2 * x, 0.55, 0), (1.3 * x, 0.35, 0)
+        sticks += [(chest, shoulder), (shoulder, bump), (shoulder, elbow), (elbow, hand)]
+    sticks.append(((0.26, 0.35, 0), (0.26, -0.05, 0.0)))            # a stick held in the left hand
+    graph, at = _stick_graph(sticks)
+    reduced = template.reduced()
+    names = [template.names[j] for j in reduced.joints]
+    ends = {"hips": hips, "chest": chest, "head_end": crown, "left_toe_end": (0.1, 0, 0),
+            "right_toe_end": (-0.1, 0, 0)}
+
+    def embedding(hands):
+        placed = [at({**ends, **hands}[n]) for n in names]
+        paths = [[placed[0]]] + [graph.path(placed[reduced.parents[k]], placed[k]) for k in range(1, len(placed))]
+        return Embedding(np.array(placed), paths, cost=0.0, expanded=0)
+
+    on_bumps = embedding({"left_hand_end": (0.28, 0.85, 0), "right_hand_end": (-0.28, 0.85, 0)})
+    passed = passed_forks(graph, on_bumps, template)
+    assert [template.names[j] for j in passed] == ["left_hand_end", "right_hand_end"]
+    words = _words("forks", None, graph, on_bumps, template, None, {}, {})
+    assert words.startswith("left hand end, right hand end: at the end of a short fork"), words
+    on_hands = embedding({"left_hand_end": (0.26, 0.35, 0), "right_hand_end": (-0.26, 0.35, 0)})
+    assert passed_forks(graph, on_hands, template) == []
+    assert FORK_PART ** 2 * 0.6 < 0.5
+
+
+@pytest.mark.skipif(not ARMOURED.exists(), reason="shared data (../shared/data) is not present")
+def test_a_seated_body_whose_arm_chains_went_to_shoulder_bumps_is_doubtful_and_says_why(tmp_path):
+    """0 A.D.'s armoured body in a long tunic, seated with its hands by its thighs (re-posed through its
+    artist's weights): the biped's T-posed arms made both hand ends go to the bumps of its armour behind the
+    shoulders (wrists 22 % of the height off), and the rig scored 0.60. Its hands, the two most prominent ends
+    of the shape, branch off those arms' paths: right, or doubtful and saying why."""
+    rig, verdict = rig_posed(ARMOURED, "seated", tmp_path)
+    assert verdict["structure"] or rig.info["confidence"] < 0.5, (verdict["wrong"], rig.info["confidence"])
+    if not verdict["structure"]:
+        assert any("short fork" in r for r in rig.info["confidence_reasons"]), rig.info["confidence_reasons"]
+
+
 
 
 @pytest.mark.skipif(not BOUDICCA_TUNIC.exists(), reason="shared data (../shared/data) is not present")
