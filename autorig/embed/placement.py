@@ -33,6 +33,7 @@ from ..template import Template
 
 MAX_STRETCH = 1.33
 MAX_NECK_SHIFT = 0.15    # fraction of the height: the furthest the mesh's neck may move the template's
+PULL_BAND = 0.01         # heights: a pull ending less deep than this (and than its joint) is taken in part
 
 
 def leaves(template: Template) -> np.ndarray:
@@ -80,8 +81,9 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
     towards the template moved by a convention's ``shift`` [J, 3] (``convention.convention_shift``);
     ``extent`` [3] is the mesh's bounding box in the same frame, ``neck`` its neck's height as a fraction of
     its height (``landmarks.neck_fraction``; None: unknown). With the distance ``field``, a joint the pull
-    would take out of the mesh stays where it was: the template's rest pose is not the character's (arms
-    held out where the examples' hang), and a limb's joints belong inside the limb."""
+    would take out of the mesh stays where it was (``inside_share``, by the mesh's exact depth): the
+    template's rest pose is not the character's (arms held out where the examples' hang), and a limb's joints
+    belong inside the limb."""
     if not template.placement:
         return joints
     alpha = np.asarray(template.placement["alpha"], dtype=float)[:, None]
@@ -91,11 +93,25 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
         offset = np.asarray(template.placement["offset"], dtype=float)
         placed = placed + offset * body_box(extent, template.placement["extent"])
     if field is not None:
-        solid = np.array([not template.is_tip(j) for j in range(len(template.names))])
-        depth = field.depth(placed)
-        outside = solid & (depth < 0) & (depth < field.depth(joints))
-        placed[outside] = joints[outside]
+        depth = getattr(field, "exact_depth", field.depth)
+        placed = joints + inside_share(depth(placed), depth(joints), template)[:, None] * (placed - joints)
     return placed
+
+
+def inside_share(placed_depth: np.ndarray, depth: np.ndarray, template: Template) -> np.ndarray:
+    """[J] how much of its pull each joint takes, by the depth [J] it would be pulled to (``placed_depth``)
+    against its own (``depth``; canonical frame, heights, inside > 0); tips all of it. A joint inside takes all
+    of a pull that leaves it as deep as it was or ``PULL_BAND`` deep, none of one that ends at the surface or
+    out, and between, a smooth step: all or nothing there, a pull ending a hair inside or outside moved a joint
+    as far as the pull with a rounding error of the mesh (a seated figure's head 7.5 % of the height towards
+    its face). A joint the refinement left outside (an armpit's, a crotch's) takes all of a pull that leaves it
+    no shallower, none of one that does (the limit of the step as the joint nears the surface)."""
+    placed_depth, depth = np.asarray(placed_depth, float), np.asarray(depth, float)
+    inside = depth > 0
+    x = np.clip(placed_depth / np.where(inside, np.minimum(depth, PULL_BAND), 1.0), 0.0, 1.0)
+    share = np.where(inside, x * x * (3.0 - 2.0 * x), (placed_depth >= depth).astype(float))
+    share[[j for j in range(len(template.names)) if template.is_tip(j)]] = 1.0
+    return share
 
 
 def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
