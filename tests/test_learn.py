@@ -212,7 +212,7 @@ def test_a_pull_ending_at_the_skin_moves_a_joint_alike_a_hair_inside_or_outside(
         def __init__(self, front):
             self.front = front
 
-        def depth(self, points):
+        def exact_depth(self, points):
             return self.front - np.asarray(points)[:, 2]
 
     surface = float(target[head, 2])

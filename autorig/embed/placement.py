@@ -93,8 +93,8 @@ def learned_placement(joints: np.ndarray, template: Template, extent: np.ndarray
         offset = np.asarray(template.placement["offset"], dtype=float)
         placed = placed + offset * body_box(extent, template.placement["extent"])
     if field is not None:
-        depth = getattr(field, "exact_depth", field.depth)
-        placed = joints + inside_share(depth(placed), depth(joints), template)[:, None] * (placed - joints)
+        share = inside_share(field.exact_depth(placed), field.exact_depth(joints), template)
+        placed = joints + share[:, None] * (placed - joints)
     return placed
 
 
