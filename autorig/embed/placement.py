@@ -105,13 +105,16 @@ def inside_share(placed_depth: np.ndarray, depth: np.ndarray, template: Template
     out, and between, a smooth step: all or nothing there, a pull ending a hair inside or outside moved a joint
     as far as the pull with a rounding error of the mesh (a seated figure's head 7.5 % of the height towards
     its face). A joint the refinement left outside (an armpit's, a crotch's) takes all of a pull that leaves it
-    no shallower, none of one that does (the limit of the step as the joint nears the surface)."""
+    no shallower, none of one that does (the limit of the step as the joint nears the surface). Mirror images
+    take the smaller of their two shares, as the conventions' moves do: one shoulder pulled and its twin not
+    made a lopsided rig, and which of them kept its pull turned on where a rounding error of the mesh left
+    each (an armoured figure, seated: a shoulder 6 % of the height)."""
     placed_depth, depth = np.asarray(placed_depth, float), np.asarray(depth, float)
     inside = depth > 0
     x = np.clip(placed_depth / np.where(inside, np.minimum(depth, PULL_BAND), 1.0), 0.0, 1.0)
     share = np.where(inside, x * x * (3.0 - 2.0 * x), (placed_depth >= depth).astype(float))
     share[[j for j in range(len(template.names)) if template.is_tip(j)]] = 1.0
-    return share
+    return np.minimum(share, share[template.mirror_of()])
 
 
 def fit_alpha(refined: list[np.ndarray], truths: list[np.ndarray], extents: list[np.ndarray], template: Template,
