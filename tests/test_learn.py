@@ -226,7 +226,6 @@ def test_a_pull_ending_at_the_skin_moves_a_joint_alike_a_hair_inside_or_outside(
     assert np.linalg.norm(inside[head] - joints[head]) < 0.05   # and at the skin, only part of the pull
 
 
-
 def test_mirror_images_take_the_same_share_of_their_pull():
     """A shoulder whose pulled place ends inside the body and a twin whose pulled place ends outside both stay:
     which of a seated figure's shoulders kept its pull turned on where the refinement, moved 1-2 % of the height
@@ -250,6 +249,7 @@ def test_mirror_images_take_the_same_share_of_their_pull():
     assert np.allclose(placed[[left, right]], joints[[left, right]])
     others = [j for j in range(J) if j not in (left, right)]
     assert np.allclose(placed[others], target[others])
+
 
 def test_confidence_moves_each_feature_only_its_own_way_and_ignores_rigs_in_between():
     """Calibration rigs where the wrong ones happen to be the symmetric ones (as backwards rigs of a symmetric
