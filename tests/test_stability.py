@@ -157,3 +157,61 @@ def test_of_two_mirror_twins_the_packing_keeps_the_same_one_whichever_is_nudged_
         kept.append(centers[np.abs(centers[:, 1]) < 0.5, 0])
     assert len(kept[0]) == len(kept[1]) == 1
     assert np.sign(kept[0][0]) == np.sign(kept[1][0])
+
+
+def test_the_refinement_ends_where_it_did_whichever_cells_the_octree_split():
+    """Two fields of one mesh whose octrees split differently (a rounding error of the mesh tips a cell's
+    interpolation error past the tolerance and splits it): from the same start the refinement ends at the same
+    joints. It reads the depth on the finest grid, from exact corners, not the octree's interpolation, whose
+    gradient jumps at cells that exist in one field and not the other."""
+    from autorig.discretize.distance import distance_field
+    from autorig.discretize.graph import sphere_graph
+    from autorig.discretize.medial import medial_samples, pack_spheres
+    from autorig.embed import embed
+    from autorig.embed.refine import place_on_paths, refine
+    from autorig.input.mesh import prepare
+    from autorig.readoff.tips import surface_for
+    from autorig.samples import mannequin
+    from autorig.template import load_template
+
+    sample = mannequin(pose="a")
+    prepared = prepare(sample.vertices, sample.faces, "y", "z")
+    coarse = prepared.coarse()
+    field = distance_field(*coarse)
+    finer = distance_field(*coarse, tolerance=0.001)
+    assert len(finer.leaf_level) > len(field.leaf_level) * 1.2     # the octrees differ
+    graph = sphere_graph(field, pack_spheres(medial_samples(field), min_radius=field.finest))
+    template = load_template("biped")
+    embedding = embed(graph, template)
+    start = place_on_paths(graph, embedding, template, surface_for(field))
+    on_paths = place_on_paths(graph, embedding, template, None)
+    a = refine(field, start, template, on_paths=on_paths)
+    b = refine(finer, start, template, on_paths=on_paths)
+    assert np.abs(a - start).max() > 0.01                              # the refinement moved the joints
+    assert np.linalg.norm(a - b, axis=1).max() < 1e-9                  # 1.7e-4 on the octree's depth
+
+
+def test_the_refinements_depth_is_near_the_exact_depth_with_a_gradient_that_does_not_jump():
+    """The depth the refinement reads (``smooth_depth_and_gradient``) lies within a finest cell's edge of the
+    exact depth, its gradient is its derivative, and along a line the gradient turns smoothly: the octree's
+    interpolation jumps at each cell face it crosses."""
+    from autorig.discretize.distance import distance_field
+    from autorig.input.mesh import prepare
+    from autorig.samples import mannequin
+
+    sample = mannequin(pose="a", resolution=48)
+    field = distance_field(*prepare(sample.vertices, sample.faces, "y", "z").coarse())
+    rng = np.random.default_rng(0)
+    vertices = field.surface_vertices
+    points = vertices[rng.choice(len(vertices), 300)] + rng.normal(0.0, 0.02, (300, 3))
+    depth, gradient = field.smooth_depth_and_gradient(points)
+    assert np.abs(depth - field.exact_depth(points)).max() < field.finest
+    step = 1e-6
+    numeric = np.stack([(field.smooth_depth_and_gradient(points + step * axis)[0]
+                         - field.smooth_depth_and_gradient(points - step * axis)[0]) / (2 * step)
+                        for axis in np.eye(3)], axis=1)
+    assert np.abs(numeric - gradient).max() < 1e-6
+    line = points[0] + np.linspace(-0.05, 0.05, 4001)[:, None] * np.array([0.8, 0.5, 0.33])
+    smooth_jump = np.abs(np.diff(field.smooth_depth_and_gradient(line)[1], axis=0)).max()
+    octree_jump = np.abs(np.diff(field.depth_and_gradient(line)[1], axis=0)).max()
+    assert smooth_jump < 0.01 < octree_jump

@@ -23,6 +23,8 @@ from .surface import SurfaceQuery
 
 # Offsets of a cell's 8 corners in units of the cell edge, in the order used for trilinear weights.
 CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int64)
+# The 27 nodes of a quadratic B-spline's stencil, as indices 0-2 per axis (``smooth_depth_and_gradient``).
+STENCIL = np.array([[i, j, k] for i in range(3) for j in range(3) for k in range(3)], dtype=np.int64)
 
 
 ON_GRID = 1e-7   # finest edges: a point this near a plane of the finest grid lies on it (``_finest_leaf``)
@@ -58,6 +60,10 @@ class DistanceField:
     corner_face: np.ndarray | None = None
     _level_index: list | None = None
     _spread: dict = dataclass_field(default_factory=dict, repr=False, compare=False)
+    # the finest grid's points off the octree's corners whose depth ``smooth_depth_and_gradient`` queried:
+    # (their sorted grid numbers, their depths)
+    _grid_extra: tuple = dataclass_field(default_factory=lambda: (np.zeros(0, dtype=np.int64), np.zeros(0)),
+                                         repr=False, compare=False)
 
     @property
     def finest(self) -> float:
@@ -108,6 +114,65 @@ class DistanceField:
         for axis, others in enumerate((fy * fz, fx * fz, fx * fy)):                        # [N, 8] each
             gradient[in_cube, axis] = np.einsum("nc,nc->n", others * signs[:, axis], values) / (edge * self.finest)
         return depth, gradient
+
+    def smooth_depth_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Smoothed signed depth [N] (> 0 inside) and its gradient [N, 3] at points [N, 3], for the refinement
+        (``autorig.embed.refine``): the quadratic B-spline over the finest grid of the exact depth at the grid's
+        points (those the octree evaluated, the others queried once and kept). It lies within about a finest
+        cell's edge of the exact depth (where the depth has a crease, the medial surface; much nearer
+        elsewhere), its gradient is continuous, and it does not depend on which cells the octree split. The
+        octree's trilinear depth (``depth_and_gradient``) has a gradient that jumps at every cell face, and
+        which cells exist turns on rounding errors: L-BFGS-B went from the same start to local minima 0.1-3 %
+        of the height apart (a posed 0 A.D. Boudicca's hand end 3.4 %), and took five times the evaluations.
+        Points within half a finest cell of the root cube's faces or outside it: as ``depth_and_gradient``."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        rel = (points - self.origin) / self.finest
+        n = 2 ** self.max_level
+        inside = np.all((rel >= 0.5) & (rel < n - 0.5), axis=1)
+        depth, gradient = np.empty(len(points)), np.empty((len(points), 3))
+        if not inside.all():
+            depth[~inside], gradient[~inside] = self.depth_and_gradient(points[~inside])
+        rel = rel[inside]
+        middle = np.floor(rel + 0.5).astype(np.int64)          # the nearest grid point
+        u = rel - middle + 0.5                                  # in [0, 1)
+        w = np.stack([0.5 * (1 - u) ** 2, 0.5 + u * (1 - u), 0.5 * u ** 2], axis=1)      # [N, 3 nodes, 3 axes]
+        dw = np.stack([u - 1, 1 - 2 * u, u], axis=1)
+        nodes = (middle[:, None, :] + np.array([-1, 0, 1])[None, :, None])             # [N, 3, 3]
+        X, Y, Z = STENCIL[:, 0], STENCIL[:, 1], STENCIL[:, 2]
+        numbers = grid_number(np.stack([nodes[:, X, 0], nodes[:, Y, 1], nodes[:, Z, 2]], axis=2).reshape(-1, 3),
+                              self.max_level)
+        values = self._grid_values(numbers).reshape(-1, len(STENCIL))
+        wx, wy, wz = w[:, X, 0], w[:, Y, 1], w[:, Z, 2]
+        depth[inside] = np.einsum("nc,nc->n", wx * wy * wz, values)
+        gradient[inside] = np.stack([np.einsum("nc,nc->n", dw[:, X, 0] * wy * wz, values),
+                                     np.einsum("nc,nc->n", wx * dw[:, Y, 1] * wz, values),
+                                     np.einsum("nc,nc->n", wx * wy * dw[:, Z, 2], values)], axis=1) / self.finest
+        return depth, gradient
+
+    def _grid_values(self, numbers: np.ndarray) -> np.ndarray:
+        """Exact signed depth [N] at points of the finest grid given by ``grid_number`` [N]: the octree's corners
+        where it evaluated them, the others queried on first use and kept (sorted by number) for later calls."""
+        values = np.empty(len(numbers))
+        rows = self.corner_row[numbers]
+        known = rows >= 0
+        values[known] = self.corner_depth[rows[known]]
+        rest = np.flatnonzero(~known)
+        if not len(rest):
+            return values
+        keys, kept = self._grid_extra
+        wanted = numbers[rest]
+        at = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+        found = keys[at] == wanted if len(keys) else np.zeros(len(rest), dtype=bool)
+        values[rest[found]] = kept[at[found]]
+        if not found.all():
+            new = unique_ints(wanted[~found])
+            depth = self.surface.closest(self.origin + grid_index(new, self.max_level) * self.finest)[0]
+            keys, kept = np.concatenate([keys, new]), np.concatenate([kept, depth])
+            order = np.argsort(keys, kind="stable")
+            self._grid_extra = (keys[order], kept[order])
+            at = np.searchsorted(self._grid_extra[0], wanted[~found])
+            values[rest[~found]] = self._grid_extra[1][at]
+        return values
 
     def _finest_leaf(self, rel: np.ndarray) -> np.ndarray:
         """Leaf index [N] of each point given in finest-edge units (inside the cube): on a face, edge or corner
@@ -227,6 +292,10 @@ class MovedField:
 
     def depth_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         depth, gradient = self.base.depth_and_gradient(self._in_base(points))
+        return depth * self.scale, gradient @ self.rotation.T
+
+    def smooth_depth_and_gradient(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        depth, gradient = self.base.smooth_depth_and_gradient(self._in_base(points))
         return depth * self.scale, gradient @ self.rotation.T
 
     def moved(self, rotation: np.ndarray, offset: np.ndarray, scale: float) -> "MovedField":

@@ -4,14 +4,15 @@ First every joint of a collapsed chain is put on its reduced bone's sphere path,
 its template position has along the chain: the path ends at its tip read off the surface
 (``autorig.readoff.tips``: the centroid of the limb's end cap, so the joints before it sit inside the limb,
 not at its end), and its zigzag between sphere centres is smoothed out first. Then all joints move together to minimise, with scipy's L-BFGS-B and
-an exact gradient:
+an exact gradient, on a smoothed depth (``DistanceField.smooth_depth_and_gradient``: continuous gradient, the same
+whichever cells the octree split):
 
 =============  ======  ==================================================================================
 term           weight  what it asks
 =============  ======  ==================================================================================
 depth          1.0     each joint at least as deep in the volume as where it started (centred in its limb);
                        tips (crown, fingertips) no farther out than the surface
-inside         4.0     every bone's segment inside the mesh
+inside         4.0     every bone's segment inside the mesh, its joints included
 length         1.0     bone lengths as placed on the paths (squared relative change)
 direction      1.0     1 - cos(angle) between each bone and the template's (a shoulder beside the chest, not
                        on the spine); a bone whose path points more than 90 degrees from the template's
@@ -34,7 +35,10 @@ from . import Embedding
 
 TERMS = {"depth": 1.0, "inside": 4.0, "length": 1.0, "direction": 1.0, "symmetry": 0.5, "anchor": 0.2}
 ANCHOR_UNIT = 0.05
-BONE_SAMPLES = np.linspace(0.0, 1.0, 6)[1:-1]
+# Points along each solid bone kept inside, its two joints among them: on the octree's depth, whose gradient
+# jumps at cell faces, L-BFGS-B stopped short of the minimum with joints inside; on the smoothed depth it goes on,
+# and with the inner points alone the elbows of a posed Boudicca's arms bent in front settled just outside.
+BONE_SAMPLES = np.linspace(0.0, 1.0, 6)
 SMOOTH_ROUNDS = 3   # rounds of smoothing of an embedded path before joints are placed along it
 # A mirror pair's symmetry weight: the mesh within SYMMETRY_REACH (heights) of either of its joints is mirrored
 # across the mid-plane, and its mean distance to the surface (heights) weighs the pair by
@@ -168,7 +172,7 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
     # Tips sit on the surface on purpose; they neither need depth nor give depth to their bone.
     solid = np.array([not template.is_tip(j) for j in range(J)])
     solid_bone = solid[child]
-    target_depth = np.where(solid, np.maximum(field.depth(initial), 0.0), 0.0)
+    target_depth = np.where(solid, np.maximum(field.smooth_depth_and_gradient(initial)[0], 0.0), 0.0)
     rest_length = np.maximum(np.linalg.norm(initial[child] - initial[parent], axis=1), 1e-6)
     template_dir = template.positions[child] - template.positions[parent]
     if on_paths is None:
@@ -193,12 +197,13 @@ def refine(field: DistanceField, initial: np.ndarray, template: Template, max_it
         grad = np.zeros_like(X)
         total = 0.0
 
-        # The field is queried once for the joints and the bones' sample points: a query's fixed cost (walking
-        # the octree's levels) is most of its time at these sizes.
+        # The field is queried once for the joints and the bones' sample points, smoothed over the finest grid
+        # (``smooth_depth_and_gradient``): a depth whose gradient jumps at the octree's cell faces sent
+        # L-BFGS-B from the same start to another local minimum as a rounding error split other cells.
         a, b = X[parent[solid_bone]], X[child[solid_bone]]
         s = BONE_SAMPLES[None, :, None]
         pts = (a[:, None, :] * (1 - s) + b[:, None, :] * s).reshape(-1, 3)
-        depth, depth_grad = field.depth_and_gradient(np.vstack([X, pts]))
+        depth, depth_grad = field.smooth_depth_and_gradient(np.vstack([X, pts]))
 
         # depth: joints no shallower than where they started; tips at least on the surface
         d, gd = depth[:J], depth_grad[:J]
