@@ -264,8 +264,8 @@ def embed_and_refine(field, graph, template, stage=None, max_expansions: int | N
         embedding = embed(graph, template, max_expansions, held)
 
     def placed(embedding):
-        return along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field)),
-                                     template, on_paths=place_on_paths(graph, embedding, template, None)),
+        return along_the_foot(refine(field, place_on_paths(graph, embedding, template, surface_for(field), field),
+                                     template, on_paths=place_on_paths(graph, embedding, template, None, field)),
                               template)
     with stage("refinement"):
         joints = placed(embedding)

@@ -51,17 +51,29 @@ SYMMETRY_SCALE = 0.02
 SYMMETRY_SAMPLES = 2000
 
 
-def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface) -> np.ndarray:
+def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template, surface,
+                   field=None) -> np.ndarray:
     """[J, 3] initial position of every template joint, by arc length along the embedded sphere paths, each
     path smoothed and each tip read off ``surface`` (a ``readoff.tips.Surface`` of the mesh in the graph's
-    frame: the centroid of its limb's end cap; None: each path's own end)."""
+    frame: the centroid of its limb's end cap; None: each path's own end). ``field`` (the distance field, same
+    frame): the paths of the mid-plane's chains (spine, neck and head, tail) first centred across the body
+    (``readoff.midline.centred_points``), so that which of two mirror-image paths the embedding took (a head
+    whose top holds a sphere at each side, an ear or a bun of hair, equally cheap) does not matter."""
     reduced = template.reduced()
     mirror = template.mirror_of()
     positions = np.zeros((len(template.names), 3))
     positions[reduced.joints[0]] = graph.centers[embedding.spheres[0]]
+    if field is not None:
+        from ..readoff.midline import centred_points
+        vertices = field.surface_vertices
+        root = reduced.joints[0]
+        if mirror[root] == root:
+            positions[root] = centred_points(positions[root], field.depth, vertices, whole=True)[0]
     for k in range(1, len(reduced.joints)):
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
+        if field is not None and all(mirror[j] == j for j in chain):
+            polyline = centred_points(polyline, field.depth, vertices, whole=True)
         if surface is not None and template.is_tip(chain[-1]):
             tip = surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1])
             if _beyond_start(polyline, tip):

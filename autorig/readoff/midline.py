@@ -49,15 +49,26 @@ def centred(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.nda
     signed depth of points [N, 3]; vertices [V, 3] the mesh's, in the same frame (the chords span their box)."""
     out = np.array(joints, float)
     mirror = template.mirror_of()
+    mid = [j for j in range(len(out)) if mirror[j] == j and not template.is_tip(j)]
+    if mid:
+        out[mid] = centred_points(out[mid], depth, vertices)
+    return out
+
+
+def centred_points(points: np.ndarray, depth, vertices: np.ndarray, whole: bool = False) -> np.ndarray:
+    """[N, 3] ``points`` (canonical frame) each moved along x towards the middle of the body's chord through it,
+    as ``centred`` moves a mid-plane joint: all the way once it lies deep enough, less the nearer it lies to the
+    surface, not at all outside. whole: all the way wherever the chord has a middle (sphere centres, which lie
+    inside by their making: the end of a head's path, shallow at the top of the head, went 0.036 of the height
+    to one side or the other as the embedding took a sphere on one side of the head or its mirror image)."""
+    out = np.array(points, float).reshape(-1, 3)
     margin = 0.02 * float(np.ptp(vertices[:, AXIS]))
     lo, hi = float(vertices[:, AXIS].min()) - margin, float(vertices[:, AXIS].max()) + margin
     step = (hi - lo) / (SAMPLES - 1)
     full = FULL_DEPTH * float(np.ptp(vertices[:, 1]))
-    for j in range(len(out)):
-        if mirror[j] != j or template.is_tip(j):
-            continue
-        inside = float(depth(out[j][None, :])[0]) - step
-        middle = chord_middle(depth, out[j], lo, hi) if inside > 0 else None
+    inside = np.asarray(depth(out), float) - (0.0 if whole else step)
+    for j in np.flatnonzero(inside > 0):
+        middle = chord_middle(depth, out[j], lo, hi)
         if middle is None:
             continue
         # A joint within a sample of the surface may lie outside the chord's samples (no middle to read). Deeper,
@@ -65,6 +76,6 @@ def centred(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.nda
         # hair deeper moves by little more than a hair; all of it from a depth as large as the way, or FULL_DEPTH
         # of the height, on (a flattened trunk's mid-plane joint, shallow but far off its middle, is centred).
         way = abs(middle - out[j, AXIS])
-        x = min(inside / min(way, full), 1.0) if way > 0 else 1.0
+        x = min(inside[j] / min(way, full), 1.0) if way > 0 and not whole else 1.0
         out[j, AXIS] = middle if x == 1.0 else out[j, AXIS] + x * x * (3.0 - 2.0 * x) * (middle - out[j, AXIS])
     return out
