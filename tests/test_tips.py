@@ -190,3 +190,34 @@ def test_a_tip_read_behind_its_limbs_start_is_not_its_end():
     assert _beyond_start(path, np.array([0.15, 0.58, 0.01]))      # short of the path's end
     assert not _beyond_start(path, np.array([-0.05, 0.45, 0.0]))  # behind where the limb starts
     assert not _beyond_start(path[:1], np.array([0.1, 0.5, 0.0]))  # no chord: the path's own end
+
+
+def test_a_climb_to_the_lower_of_two_tops_within_a_cap_reads_the_head_tip_around_the_higher():
+    """A round head's crown and the back of it are two tops of the reach within a cap of each other; which of the
+    two a climb reached flipped when the mesh moved a millionth (re-posed CesiumMan's head 0.6 % of the height).
+    A mid-plane part's cap is read around the higher top, whichever the climb reached first."""
+    from autorig.readoff.tips import CAP, _tops
+
+    n = 41
+    x, y = np.meshgrid(np.linspace(-0.5, 0.5, n), np.linspace(0.0, 1.0, n), indexing="ij")
+    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    index = np.arange(n * n).reshape(n, n)
+    a, b, c, d = index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel(), index[:-1, 1:].ravel()
+    faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    surface = Surface(vertices, faces, np.array([0.0, 0.5, -1.0]))
+
+    def bump(cy, h, fall):      # a top at (0, cy) of height h, falling by ``fall`` at 0.15 from it
+        return h - fall * (x ** 2 + (y - cy) ** 2) / 0.15 ** 2
+
+    def tips(lower, fall):
+        reach = np.maximum(bump(0.35, 1.0, fall), bump(0.65, 1.0 - lower, fall)).ravel()
+        surface.reach, surface.top = reach, _tops(surface.graph, reach)
+        near_low, near_high = index[n // 2, int(0.7 * (n - 1))], index[n // 2, int(0.3 * (n - 1))]
+        assert surface.top[near_low] != surface.top[near_high]         # the climbs reach different tops
+        return surface.tip(vertices[near_low], midline=True), surface.tip(vertices[near_high], midline=True)
+
+    low, high = tips(0.6 * CAP, 0.2 * CAP)      # joined by a ridge within the cap
+    assert np.allclose(low, high)
+    # a top more than a cap lower, beyond a valley deeper than the cap (a part of its own), keeps its own tip
+    low, high = tips(1.5 * CAP, 4 * CAP)
+    assert np.linalg.norm(low - high) > 0.2
