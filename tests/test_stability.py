@@ -260,3 +260,47 @@ def test_a_head_path_through_a_sphere_or_its_mirror_image_places_the_same_head()
     as_taken = np.linalg.norm(joints["one side"][1][head] - joints["the other"][1][head], axis=1)
     assert as_taken.max() > 0.005                   # the side the path took moves the head as placed along it
     assert centred.max() < 1e-9
+
+
+def test_a_head_path_by_another_route_inside_the_head_places_the_same_neck_and_head():
+    """Inside a round head the embedding's path takes one route or another between equally good spheres (up the
+    back of the skull, or round the front), as a rounding error falls. A mid-plane chain that ends at a tip is
+    placed along its chord from start to tip, so a longer route inside the head moves the neck and head little
+    (by the length of the route it had moved a seated MakeHuman body's head 1.9 % of the height)."""
+    from types import SimpleNamespace
+
+    from autorig.embed.refine import place_on_paths
+    from autorig.template import load_template
+
+    template = load_template("biped")
+    reduced = template.reduced()
+    names = list(template.names)
+    k = next(k for k in range(1, len(reduced.joints)) if names[reduced.chains[k][-1]] == "head_end")
+    # every chain a short straight path of its own; the head's from the chest at 0.7 up to the crown at 0.95
+    centers, paths = [], []
+    for j in range(len(reduced.joints)):
+        start = np.array([0.1 * j, 0.0, 0.0])
+        centers += [start, start + [0.0, 0.05, 0.0]]
+        paths.append(np.array([2 * j, 2 * j + 1]))
+    straight = np.column_stack([np.zeros(21), np.linspace(0.7, 0.95, 21), np.zeros(21)])
+    # the other route: round by the back of the head, above the head joint
+    winding = straight.copy()
+    winding[16:20, 2] -= 0.04
+    routes = []
+    for route in (straight, winding):
+        first = len(centers)
+        centers += list(route)
+        routes.append(np.arange(first, first + len(route)))
+    graph = SimpleNamespace(centers=np.array(centers))
+    surface = SimpleNamespace(tip=lambda start, midline=False: np.array(start, float))    # each path's own end
+    joints = []
+    for route in routes:
+        paths[k] = route
+        embedding = SimpleNamespace(spheres=np.array([p[0] for p in paths]), paths=list(paths))
+        joints.append(place_on_paths(graph, embedding, template, surface))
+    length = lambda route: float(np.linalg.norm(np.diff(graph.centers[route], axis=0), axis=1).sum())  # noqa: E731
+    longer = length(routes[1]) - length(routes[0])
+    assert longer > 0.05                               # the other route is 5 % of the height longer
+    head = [names.index(n) for n in ("neck", "head", "head_end")]
+    moved = np.linalg.norm(joints[0][head] - joints[1][head], axis=1)
+    assert moved.max() < 0.1 * longer, (moved, longer)
