@@ -74,16 +74,18 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
     for k in range(1, len(reduced.joints)):
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
-        if field is not None and all(mirror[j] == j for j in chain):
+        on_midline = all(mirror[j] == j for j in chain)
+        to_tip = surface is not None and template.is_tip(chain[-1])
+        if field is not None and on_midline:
             polyline = centred_points(polyline, field.depth, vertices, whole=True)
-        if surface is not None and template.is_tip(chain[-1]):
+        if to_tip:
             tip = surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1])
             if _beyond_start(polyline, tip):
                 polyline = _end_at(polyline, tip)
         polyline = _smoothed(polyline)
         seg = np.linalg.norm(np.diff(polyline, axis=0), axis=1)
         arc = np.concatenate([[0.0], np.cumsum(seg)])
-        if surface is not None and template.is_tip(chain[-1]) and all(mirror[j] == j for j in chain):
+        if to_tip and on_midline:
             # A mid-plane chain that ends at a tip (a neck and head, a tail): its joints placed by how far
             # along the chord from its start to its tip they lie, not by the length of the path up to them.
             # Inside a round head the path takes one route or another between equally good spheres (up the

@@ -92,12 +92,11 @@ class Surface:
         if not midline:
             return self._tip(start, cap, unheld=True)
         tip = self._tip(start, cap, highest=True)
-        if midline:
-            other = self._tip(start * MIRROR, cap, highest=True)
-            # A mirrored pair when each is the other's mirror image: the other climb did not run off to
-            # another part (a rhino's tail end is no mirror image of its horn).
-            if np.linalg.norm(other * MIRROR - tip) <= PAIR:
-                return 0.5 * (tip + other)
+        other = self._tip(start * MIRROR, cap, highest=True)
+        # A mirrored pair when each is the other's mirror image: the other climb did not run off to another
+        # part (a rhino's tail end is no mirror image of its horn).
+        if np.linalg.norm(other * MIRROR - tip) <= PAIR:
+            return 0.5 * (tip + other)
         return tip
 
     def _tip(self, start: np.ndarray, cap: float, unheld: bool = False, highest: bool = False) -> np.ndarray:
