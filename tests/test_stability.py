@@ -304,3 +304,49 @@ def test_a_head_path_by_another_route_inside_the_head_places_the_same_neck_and_h
     head = [names.index(n) for n in ("neck", "head", "head_end")]
     moved = np.linalg.norm(joints[0][head] - joints[1][head], axis=1)
     assert moved.max() < 0.1 * longer, (moved, longer)
+
+
+def test_a_neck_path_through_the_front_or_the_back_of_the_neck_places_the_same_neck_and_head():
+    """A neck is round too: the embedding's path up it runs nearer its front or its back as the spheres fall
+    (a re-posed MakeHuman body's head 0.74 % of the height apart under 1e-6 noise). A neck and head's path is
+    centred across its chord (start to tip) in the mid-plane, through the body's depth, before its joints are
+    placed on it: the same joints either way, and on the neck's axis."""
+    from types import SimpleNamespace
+
+    from autorig.embed.refine import place_on_paths
+    from autorig.template import load_template
+
+    template = load_template("biped")
+    reduced = template.reduced()
+    names = list(template.names)
+    k = next(k for k in range(1, len(reduced.joints)) if names[reduced.chains[k][-1]] == "head_end")
+    # a neck and head: a column of radius 0.05 about the y axis from 0.6 to 1, with the trunk below it wider
+    radius = lambda y: np.where(y < 0.7, 0.15, 0.05)                                                 # noqa: E731
+    depth = lambda p: np.minimum(radius(p[:, 1]) - np.hypot(p[:, 0], p[:, 2]), np.minimum(p[:, 1], 1.0 - p[:, 1]))  # noqa: E731
+    angles = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    rim = np.column_stack([np.cos(angles), np.zeros(24), np.sin(angles)])
+    vertices = np.vstack([rim * radius(y) + [0, y, 0] for y in np.linspace(0.0, 1.0, 21)])
+    field = SimpleNamespace(depth=depth, surface_vertices=vertices)
+    centers, paths = [], []
+    for j in range(len(reduced.joints)):
+        start = np.array([0.0, 0.3 + 0.01 * j, 0.0])
+        centers += [start, start + [0.0, 0.02, 0.0]]
+        paths.append(np.array([2 * j, 2 * j + 1]))
+    ys = np.linspace(0.7, 0.99, 16)
+    routes = []
+    for z in (0.02, -0.02):                      # by the front of the neck, or by its back
+        route = np.column_stack([np.zeros(16), ys, np.where((ys > 0.72) & (ys < 0.97), z, 0.0)])
+        first = len(centers)
+        centers += list(route)
+        routes.append(np.arange(first, first + 16))
+    graph = SimpleNamespace(centers=np.array(centers))
+    surface = SimpleNamespace(tip=lambda start, midline=False: np.array(start, float))
+    joints = []
+    for route in routes:
+        paths[k] = route
+        embedding = SimpleNamespace(spheres=np.array([p[0] for p in paths]), paths=list(paths))
+        joints.append(place_on_paths(graph, embedding, template, surface, field))
+    for n in ("neck", "head"):
+        j = names.index(n)
+        assert np.linalg.norm(joints[0][j] - joints[1][j]) < 0.004, (n, joints[0][j], joints[1][j])
+        assert abs(joints[0][j][2]) < 0.002

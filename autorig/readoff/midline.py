@@ -43,6 +43,34 @@ def chord_middle(depth, point: np.ndarray, lo: float, hi: float, samples: int = 
     return float(xs[a:b] @ w / w.sum())
 
 
+def centred_across(points: np.ndarray, depth, direction: np.ndarray, span: float, x: float | None = None,
+                   samples: int = SAMPLES) -> np.ndarray:
+    """[N, 3] ``points`` each moved along the unit ``direction`` [3] to the middle of the inside run, along it,
+    of the line through the point (as ``chord_middle`` reads it along x: depth squared weights, the run that
+    holds the point, or for a point outside the nearest), sampled ``span`` either side of it; a line wholly
+    outside leaves its point. x: the lines sampled at this x, not the points' own (a chain's, on the
+    mid-plane, whose points were not all centred: one near the surface at the back of a skull kept its side,
+    and its line ran through another part of the head)."""
+    out = np.array(points, float).reshape(-1, 3)
+    direction = np.asarray(direction, float)
+    ts = np.linspace(-span, span, samples)
+    for j in range(len(out)):
+        line = out[j] + ts[:, None] * direction
+        if x is not None:
+            line[:, AXIS] = x
+        d = np.asarray(depth(line), float)
+        inside = np.flatnonzero(d > 0)
+        if not len(inside):
+            continue
+        i = int(inside[np.argmin(np.abs(inside - samples // 2))])     # the point's run, or the nearest
+        inside = d > 0
+        a = i - int(np.argmin(inside[i::-1])) + 1 if not inside[:i + 1].all() else 0
+        b = i + int(np.argmin(inside[i:])) if not inside[i:].all() else samples
+        w = d[a:b] ** 2
+        out[j] = out[j] + float(ts[a:b] @ w / w.sum()) * direction
+    return out
+
+
 def centred(joints: np.ndarray, template, depth, vertices: np.ndarray) -> np.ndarray:
     """[J, 3] ``joints`` (canonical frame) with each mid-plane joint but the tips (which lie on the surface,
     where the chord vanishes) moved along x to the middle of the body's chord through it. depth: the field's
