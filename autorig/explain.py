@@ -3,7 +3,7 @@
 The confidence (``autorig.confidence``) is read, never changed. With a calibrated model (a learned template's
 ``ConfidenceModel``), each feature moves the model's log-odds by ``coef * (x - mean) / scale``; the ones that
 move it down most (below the calibration rigs' average) are the reasons, together with the factors the model's
-probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet, reach), each counted by how much it
+probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet, reach, forks, head), each counted by how much it
 moves the log-odds of the final number. Without a model the confidence is a product of parts, and each part
 ``p < 1`` pulls it down by ``log p``. Each reason names the joints it is about where the rig says which
 ("left knee / right knee: not mirror images where the mesh is (9% of the height apart)").
@@ -55,6 +55,7 @@ def confidence_reasons(field, graph, embedding, template, joints: np.ndarray, pa
         pulls["sides"] = _factor_pull(confidence, parts.get("sides", 1.0))
         pulls["reach"] = _factor_pull(confidence, parts.get("reach", 1.0))
         pulls["forks"] = _factor_pull(confidence, parts.get("forks", 1.0))
+        pulls["head"] = _factor_pull(confidence, parts.get("head", 1.0))
         pulls["feet_behind"] += _factor_pull(confidence, parts.get("feet", 1.0))
         pulls["_values"] = values     # not a pull: what the words quote
     values = pulls.pop("_values", {})
@@ -120,6 +121,13 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         ends = [template.names[j] for j in passed_forks(graph, embedding, template)]
         return f"{', '.join(map(_said, ends[:3])) or 'a limb end'}: at the end of a short fork of the limb (a " \
                f"longer branch of it has no bones)"
+    if name == "head":
+        from .confidence import at_head
+        found = sorted(at_head(field, joints, template), key=lambda item: item[1])
+        shown = ", ".join(_said(template.names[j]) for j, _ in found[:2])
+        near = f" ({found[0][1]:.1f}x the neck and head's length from them)" if found else ""
+        return f"{shown or 'a wrist'}: against the neck and head{near}: the arm's chain ran up to the neck " \
+               f"(a hand that touches the body can hide the limb's end)"
     if name == "cost_per_bone":
         return "bones: far from the template's lengths and directions"
     if name == "facing":

@@ -52,18 +52,20 @@ def centred_across(points: np.ndarray, depth, direction: np.ndarray, span: float
     mid-plane, whose points were not all centred: one near the surface at the back of a skull kept its side,
     and its line ran through another part of the head)."""
     out = np.array(points, float).reshape(-1, 3)
+    if not len(out):
+        return out
     direction = np.asarray(direction, float)
     ts = np.linspace(-span, span, samples)
-    for j in range(len(out)):
-        line = out[j] + ts[:, None] * direction
-        if x is not None:
-            line[:, AXIS] = x
-        d = np.asarray(depth(line), float)
-        inside = np.flatnonzero(d > 0)
-        if not len(inside):
-            continue
-        i = int(inside[np.argmin(np.abs(inside - samples // 2))])     # the point's run, or the nearest
+    lines = out[:, None, :] + ts[None, :, None] * direction
+    if x is not None:
+        lines[:, :, AXIS] = x
+    depths = np.asarray(depth(lines.reshape(-1, 3)), float).reshape(len(out), samples)
+    for j, d in enumerate(depths):
         inside = d > 0
+        if not inside.any():
+            continue
+        runs = np.flatnonzero(inside)
+        i = int(runs[np.argmin(np.abs(runs - samples // 2))])      # the point's run, or the nearest
         a = i - int(np.argmin(inside[i::-1])) + 1 if not inside[:i + 1].all() else 0
         b = i + int(np.argmin(inside[i:])) if not inside[i:].all() else samples
         w = d[a:b] ** 2
