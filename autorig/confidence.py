@@ -16,8 +16,8 @@ symmetry   mirrored joints that are not mirror images where the mesh is (each pa
 search     0.8 when the A* search ran out of budget and took its greedy embedding
 feet       the mesh's toes behind its shins (``toes_forward``), as under a rig made facing backwards:
            1 / (1 + (how far behind / FEET_BEHIND_SCALE)^2); 1 for a template without feet
-sides      a mirror pair near the trunk (shoulders and elbows, hips and knees: ``SIDE_DEPTH``) each on the
-           other's side, as when an arm's chain crossed to the other arm: 0.5 for each such pair. Hands and
+sides      a mirror pair near the trunk (shoulders and elbows, hips and knees: ``sides.SIDE_DEPTH``) each
+           on the other's side, as when an arm's chain crossed to the other arm: 0.5 for each such pair. Hands and
            feet may cross (arms folded, legs crossed); elbows and knees do not
 reach      an arm or leg whose chain (shoulder to wrist, hip to toe) is far shorter than the template's, as when
            a hand that touches the body (hands on the hips, on the thighs of a seated figure) hid the limb's
@@ -55,8 +55,7 @@ import numpy as np
 from .discretize.distance import DistanceField
 from .discretize.graph import SphereGraph
 from .embed.penalties import PROMINENCE, prominences
-from .embed.sides import (SIDE_DEPTH, SIDE_MARGIN, at_head, chain_ratios, crossed_pairs,  # noqa: F401
-                          head_chains, side_chains)
+from .embed.sides import at_head, chain_ratios, crossed_pairs
 from .embed.search import Embedding
 from .template import Template
 

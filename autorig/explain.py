@@ -3,8 +3,8 @@
 The confidence (``autorig.confidence``) is read, never changed. With a calibrated model (a learned template's
 ``ConfidenceModel``), each feature moves the model's log-odds by ``coef * (x - mean) / scale``; the ones that
 move it down most (below the calibration rigs' average) are the reasons, together with the factors the model's
-probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet, reach, forks, head), each counted by how much it
-moves the log-odds of the final number. Without a model the confidence is a product of parts, and each part
+probability is multiplied by (``beyond_calibration``: fit, limbs, extra, search, sides, feet, reach, forks,
+head), each counted by how much it moves the log-odds of the final number. Without a model the confidence is a product of parts, and each part
 ``p < 1`` pulls it down by ``log p``. Each reason names the joints it is about where the rig says which
 ("left knee / right knee: not mirror images where the mesh is (9% of the height apart)").
 
@@ -107,12 +107,12 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
     if name == "search":
         return "embedding: the search ran out of time and took a greedy guess"
     if name == "sides":
-        from .confidence import crossed_pairs
+        from .embed.sides import crossed_pairs
         pairs = crossed_pairs(joints, template)
         named = " and ".join(f"{_said(template.names[i])} / {_said(template.names[j])}" for i, j in pairs[:2])
         return f"{named or 'left and right'}: each on the other's side of the body (a limb's chain crossed over)"
     if name == "reach":
-        from .confidence import chain_ratios
+        from .embed.sides import chain_ratios
         chain, ratio = min(chain_ratios(joints, template), key=lambda item: item[1])
         return f"{_said(template.names[chain[0]])} to {_said(template.names[chain[-1]])}: {ratio:.1f}x the " \
                f"template's length (a hand or foot that touches the body can hide the limb's end)"
@@ -122,7 +122,7 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         return f"{', '.join(map(_said, ends[:3])) or 'a limb end'}: at the end of a short fork of the limb (a " \
                f"longer branch of it has no bones)"
     if name == "head":
-        from .confidence import at_head
+        from .embed.sides import at_head
         found = sorted(at_head(field, joints, template), key=lambda item: item[1])
         shown = ", ".join(_said(template.names[j]) for j, _ in found[:2])
         near = f" ({found[0][1]:.1f}x the neck and head's length from them)" if found else ""

@@ -36,11 +36,17 @@ def chord_middle(depth, point: np.ndarray, lo: float, hi: float, samples: int = 
     i = i if d[i] >= d[i - 1] else i - 1          # the nearer-inside of the two samples around the point
     if d[i] <= 0 or depth(np.asarray(point, float)[None, :])[0] <= 0:
         return None
+    return run_middle(d, i, xs)
+
+
+def run_middle(d: np.ndarray, i: int, at: np.ndarray) -> float:
+    """The middle of the inside run of samples (depths ``d`` [S], > 0 inside, at places ``at`` [S] along the
+    line) that holds sample ``i``: their places' mean weighted by their depth squared."""
     inside = d > 0
     a = i - int(np.argmin(inside[i::-1])) + 1 if not inside[:i + 1].all() else 0
-    b = i + int(np.argmin(inside[i:])) if not inside[i:].all() else samples
+    b = i + int(np.argmin(inside[i:])) if not inside[i:].all() else len(d)
     w = d[a:b] ** 2
-    return float(xs[a:b] @ w / w.sum())
+    return float(at[a:b] @ w / w.sum())
 
 
 def centred_across(points: np.ndarray, depth, direction: np.ndarray, span: float, x: float | None = None,
@@ -61,15 +67,11 @@ def centred_across(points: np.ndarray, depth, direction: np.ndarray, span: float
         lines[:, :, AXIS] = x
     depths = np.asarray(depth(lines.reshape(-1, 3)), float).reshape(len(out), samples)
     for j, d in enumerate(depths):
-        inside = d > 0
-        if not inside.any():
+        runs = np.flatnonzero(d > 0)
+        if not len(runs):
             continue
-        runs = np.flatnonzero(inside)
         i = int(runs[np.argmin(np.abs(runs - samples // 2))])      # the point's run, or the nearest
-        a = i - int(np.argmin(inside[i::-1])) + 1 if not inside[:i + 1].all() else 0
-        b = i + int(np.argmin(inside[i:])) if not inside[i:].all() else samples
-        w = d[a:b] ** 2
-        out[j] = out[j] + float(ts[a:b] @ w / w.sum()) * direction
+        out[j] = out[j] + run_middle(d, i, ts) * direction
     return out
 
 
