@@ -70,6 +70,29 @@ def test_read_legs_needs_learned_rules_and_keeps_tips_with_their_paws(template):
     assert not any(n.endswith("_paw") or n in ("hips", "spine", "chest", "neck", "head") for n in moved)
 
 
+@pytest.mark.parametrize("build", ["dog", "long", "tall"])
+def test_an_elbow_placed_above_the_leg_is_read_back_onto_it(template, build):
+    """A front elbow the placement put up at the shoulder (as it did on OpenClonk's mooq, whose short legs join
+    the body low) is read back down onto the leg: below where the leg joins the body, within its ring, and near
+    the sample's own elbow (its artist's shares of the free height: 0.76-0.95)."""
+    sample = quadruped(build)
+    prepared, truth = _canonical(sample)
+    guess = np.array([truth[n] for n in template.names])
+    for side in ("left", "right"):
+        guess[template.names.index(f"front_{side}_elbow")] = truth[f"front_{side}_shoulder"]
+    read = read_legs(guess, template, prepared.work_vertices, prepared.work_faces)
+    height = float(np.ptp(prepared.work_vertices[:, 1]))
+    for leg in measure_legs(prepared.work_vertices, prepared.work_faces, guess, template):
+        name = template.names[leg.chain[1]]
+        if not name.endswith("_elbow"):
+            continue
+        elbow = read[leg.chain[1]]
+        assert elbow[1] < leg.free, (name, elbow[1], leg.free)
+        centre, width = leg.across(elbow[1])
+        assert np.all(np.abs(elbow[[0, 2]] - centre) <= width / 2), (name, elbow, centre, width)
+        assert abs(elbow[1] - truth[name][1]) / height < 0.05, (name, elbow[1], truth[name][1])
+
+
 def test_legs_round_trip_and_bad_rules(template):
     data = template.to_dict()
     assert template_from_dict(data).legs == template.legs

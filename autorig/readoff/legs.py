@@ -20,7 +20,8 @@ and each of the leg's joints (root, elbow/knee, wrist/hock, paw) is placed by co
 animals (``autorig.learn.legs``), the same for every species:
 
     height     y_j = a_j * free + b_j * bend + c_j * (top - free)   (least squares over the examples; the
-               shoulder and hip: free + c_j * (top - free), c_j the examples' median)
+               shoulder and hip: free + c_j * (top - free), c_j the examples' median; the elbow: a_j * free,
+               a_j the examples' median share, so that it stays within the leg's free part)
     across     (x, z)_j = centre(y_j) + offset_j * widths(y_j)   (medians over the examples; above ``free``
                the top ring's centre and widths, so the shoulder and hip sit over the leg's own column)
 
