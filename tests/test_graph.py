@@ -48,3 +48,76 @@ def test_a_piece_joined_only_where_its_hand_meets_the_other_keeps_that_edge():
 def test_the_order_of_the_edges_does_not_change_what_is_cut():
     edges = CHAINS + BETWEEN
     assert contacts_of(edges[::-1], BETWEEN[::-1]) == {(5, 10)}
+
+
+def _rod_field(pieces: int = 1, apart: float = 0.3):
+    """The distance field of an upright square rod one height tall and a fifth of it wide (``pieces`` side by
+    side, ``apart`` between their axes: separate pieces of the mesh, which overlap when nearer than 0.2), in
+    the canonical frame."""
+    import trimesh
+
+    from autorig.discretize.distance import distance_field
+    from autorig.embed.orient import working_axes
+    from autorig.input.mesh import prepare
+    rods = []
+    for _ in range(pieces):
+        rod = trimesh.creation.box(extents=(0.2, 1.0, 0.2))
+        for _ in range(5):          # vertices a few hundredths apart, as a character's mesh has them
+            rod = rod.subdivide()
+        rods.append(rod)
+    for k, rod in enumerate(rods):
+        rod.apply_translation((apart * k, 0.0, 0.0))
+    mesh = trimesh.util.concatenate(rods)
+    prepared = prepare(np.asarray(mesh.vertices), np.asarray(mesh.faces), *working_axes("y", "z"), name="rod",
+                       checked=True, unit="y")
+    field = distance_field(*prepared.coarse())
+    low, high = field.surface_vertices.min(axis=0), field.surface_vertices.max(axis=0)
+    return field, low, high
+
+
+def _limb_apart(low, high, x=None):
+    """Spheres up the rod: a body (the four lowest), a button just above it, a limb (four spheres) a gap
+    above the button (less than the button's radius, more than the others'), and a fingertip just above the
+    limb: each of the four groups is its own piece, the button and the body each other's nearest, the limb
+    and the fingertip each other's."""
+    x = (low[0] + high[0]) / 2 if x is None else x
+    z = (low[2] + high[2]) / 2
+    y0 = low[1]
+    ys = [0.10, 0.18, 0.26, 0.34,  0.405,  0.48, 0.56, 0.64, 0.72,  0.785]
+    rs = [0.04, 0.04, 0.04, 0.04,  0.02,   0.04, 0.04, 0.04, 0.04,  0.02]
+    c = np.array([(x, y0 + y, z) for y in ys])
+    r = np.array(rs)
+    pairs = np.array([(0, 1), (1, 2), (2, 3), (5, 6), (6, 7), (7, 8)])
+    return c, r, pairs
+
+
+def test_a_limb_left_apart_with_its_fingertip_is_bridged_to_the_body():
+    """The first bridges join each piece to its nearest only: the body and a button join, the limb and its
+    fingertip join, and the limb stood apart from the body (a MakeHuman hand cut off at a thin wrist). A piece
+    of a limb's size is bridged to the body; the limb and body are one piece of the graph."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from autorig.discretize.graph import _bridge_pieces
+    field, low, high = _rod_field()
+    c, r, pairs = _limb_apart(low, high)
+    edges = _bridge_pieces(field, c, r, pairs)
+    count, labels = connected_components(coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])),
+                                                    shape=(len(r),) * 2), directed=False)
+    assert count == 1, labels
+    assert {tuple(e) for e in edges.tolist()} >= {(3, 4), (8, 9)}      # the first bridges, as before
+
+
+def test_a_limb_on_a_piece_of_its_own_is_not_bridged_to_the_body():
+    """The same spheres with the limb and its fingertip in a second rod, a separate piece of the mesh (a shield
+    on a forearm, a forearm held by the other hand): apart from the first (the segment to the body leaves the
+    mesh) or pushed into it (the segment stays inside), the limb is not bridged to the body, whose surface is
+    another piece."""
+    from autorig.discretize.graph import _bridge_pieces
+    for apart in (0.3, 0.17):
+        field, low, high = _rod_field(pieces=2, apart=apart)
+        # each piece's spheres nearer its own rod's outer face than the other rod's face inside it
+        c, r, pairs = _limb_apart(low, high, x=low[0] + 0.05)
+        c[5:, 0] = low[0] + 0.15 + apart
+        edges = {tuple(e) for e in _bridge_pieces(field, c, r, pairs).tolist()}
+        assert not any((a <= 4) != (b <= 4) for a, b in edges), (apart, edges)
