@@ -221,3 +221,36 @@ def test_a_climb_to_the_lower_of_two_tops_within_a_cap_reads_the_head_tip_around
     # a top more than a cap lower, beyond a valley deeper than the cap (a part of its own), keeps its own tip
     low, high = tips(1.5 * CAP, 4 * CAP)
     assert np.linalg.norm(low - high) > 0.2
+
+
+def test_a_hands_climb_to_either_of_two_fingertips_reads_the_same_end_but_not_one_a_hand_away():
+    """A hand's fingertips are tops of the reach within a cap of each other, a finger's width apart; which one
+    the climb from the arm's path's end reached flipped when the mesh moved a millionth (a MakeHuman body's left
+    hand, its end 0.6 % of the height apart). A paired limb's cap is read around the higher top when the two lie
+    within ``FINGERS``; a higher top farther away (the leg a hand rests on) is not the hand's."""
+    from autorig.readoff.tips import CAP, FINGERS, _tops
+
+    n = 161
+    x, y = np.meshgrid(np.linspace(-0.5, 0.5, n), np.linspace(0.0, 1.0, n), indexing="ij")
+    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    index = np.arange(n * n).reshape(n, n)
+    a, b, c, d = index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel(), index[:-1, 1:].ravel()
+    faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    surface = Surface(vertices, faces, np.array([0.0, 0.5, -1.0]))
+
+    def tips(apart):
+        def bump(cy, h):      # a top at (0, cy) of height h, falling by 0.2 of a cap at a quarter of ``apart``
+            return h - 0.2 * CAP * (x ** 2 + (y - cy) ** 2) / (apart / 4) ** 2
+        low_y, high_y = 0.5 + apart / 2, 0.5 - apart / 2
+        reach = np.maximum(bump(high_y, 1.0), bump(low_y, 1.0 - 0.5 * CAP)).ravel()
+        surface.reach, surface.top = reach, _tops(surface.graph, reach)
+        step = 1.0 / (n - 1)
+        near_low = index[n // 2, int(round((low_y + apart / 4) / step))]
+        near_high = index[n // 2, int(round((high_y - apart / 4) / step))]
+        assert surface.top[near_low] != surface.top[near_high]         # the climbs reach different tops
+        return surface.tip(vertices[near_low]), surface.tip(vertices[near_high])
+
+    low, high = tips(0.6 * FINGERS)             # two fingertips
+    assert np.allclose(low, high)
+    low, high = tips(3 * FINGERS)               # a higher top a hand away: each cap read around its own
+    assert low[1] > high[1] + 0.02

@@ -42,6 +42,12 @@ PAIR = 0.1    # two ends within this of each other's mirror images are a mirrore
 STICK = 0.1   # a separate piece whose mean width (area / (pi * length)) is under this share of its length is a stick
 HELD = 0.1    # a stick is held when another piece lies this near the limb's path's end (fraction of the height)
 MIRROR = np.array([-1.0, 1.0, 1.0])
+# A paired limb's end (a hand, a foot): the cap is taken around the highest top within a cap of the one the
+# climb reached and no farther from it than this (a fraction of the height: a hand's fingertips), as a
+# mid-plane part's is (``Surface._tip``). Which finger the climb reached flipped when the mesh moved a
+# millionth (a MakeHuman body's left hand: the little finger or the middle one, its end 0.6 % of the height
+# apart); a hand resting on a hip, climbed on without the bound, had gone on down the leg.
+FINGERS = 0.05
 
 
 class Surface:
@@ -87,10 +93,11 @@ class Surface:
         on the body's mid-plane (x = 0: a head, a tail), whose end may be a mirrored pair (two ears, two
         horns): the mean of the tips reached from ``start`` and from its mirror image when they are such a
         pair, so that which of the two the climb reaches does not matter. A paired limb's end (not
-        ``midline``) is not climbed on a held stick (the module's last paragraph)."""
+        ``midline``) is not climbed on a held stick (the module's last paragraph), and its cap is read around the
+        highest top within ``FINGERS`` of the one its climb reached."""
         start = np.asarray(start, float)
         if not midline:
-            return self._tip(start, cap, unheld=True)
+            return self._tip(start, cap, unheld=True, highest=FINGERS)
         tip = self._tip(start, cap, highest=True)
         other = self._tip(start * MIRROR, cap, highest=True)
         # A mirrored pair when each is the other's mirror image: the other climb did not run off to another
@@ -99,7 +106,8 @@ class Surface:
             return 0.5 * (tip + other)
         return tip
 
-    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False, highest: bool = False) -> np.ndarray:
+    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False,
+             highest: float | bool = False) -> np.ndarray:
         from scipy.sparse.csgraph import connected_components
 
         _, i = self._tree.query(start)
@@ -108,13 +116,14 @@ class Surface:
             near, j = self._unheld_tree.query(start)
             if near <= HELD:
                 first = self._unheld[int(j)]
-        end = int(self.top[first])
+        end = climbed = int(self.top[first])
         while True:
             # highest: where the cap around the climb's top reaches a higher top (a round head's crown and the
             # back of it, within CAP of each other), the cap is taken around the highest, whichever the climb
             # reached first (which flipped when the mesh moved a millionth: a re-posed CesiumMan's head, 0.6 %
-            # of the height). For a mid-plane part's end only (a head, a tail): a hand resting on a hip, climbed
-            # on so, went on down the leg (an earlier trial, ``benchmarks/poses.py --all``: 486 -> 481 of 518).
+            # of the height). A paired limb's end (``highest`` a distance) only to a top that near the one
+            # climbed to (``FINGERS``: a hand's other fingertips): a hand resting on a hip, climbed on without
+            # the bound, went on down the leg (an earlier trial, ``benchmarks/poses.py --all``: 486 -> 481 of 518).
             floor = self.reach[end] - cap
             inside = np.flatnonzero(self.reach > floor)
             sub = self.graph[inside][:, inside]
@@ -122,6 +131,8 @@ class Surface:
             mine = inside[label == label[np.searchsorted(inside, end)]]
             top = int(mine[np.argmax(self.reach[mine])])
             if not highest or self.reach[top] <= self.reach[end]:
+                break
+            if highest is not True and np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > highest:
                 break
             end = top
         weight = self.area[mine] * ((self.reach[mine] - floor) / cap) ** 2
