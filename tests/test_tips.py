@@ -192,6 +192,17 @@ def test_a_tip_read_behind_its_limbs_start_is_not_its_end():
     assert not _beyond_start(path[:1], np.array([0.1, 0.5, 0.0]))  # no chord: the path's own end
 
 
+def _sheet(n: int):
+    """A flat square sheet of n x n vertices (x in [-0.5, 0.5], y in [0, 1], z = 0) and its ``Surface``, whose
+    reach a test sets: (x, y grids [n, n], vertices [n * n, 3], index [n, n] of the vertices, surface)."""
+    x, y = np.meshgrid(np.linspace(-0.5, 0.5, n), np.linspace(0.0, 1.0, n), indexing="ij")
+    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    index = np.arange(n * n).reshape(n, n)
+    a, b, c, d = index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel(), index[:-1, 1:].ravel()
+    faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    return x, y, vertices, index, Surface(vertices, faces, np.array([0.0, 0.5, -1.0]))
+
+
 def test_a_climb_to_the_lower_of_two_tops_within_a_cap_reads_the_head_tip_around_the_higher():
     """A round head's crown and the back of it are two tops of the reach within a cap of each other; which of the
     two a climb reached flipped when the mesh moved a millionth (re-posed CesiumMan's head 0.6 % of the height).
@@ -199,12 +210,7 @@ def test_a_climb_to_the_lower_of_two_tops_within_a_cap_reads_the_head_tip_around
     from autorig.readoff.tips import CAP, _tops
 
     n = 41
-    x, y = np.meshgrid(np.linspace(-0.5, 0.5, n), np.linspace(0.0, 1.0, n), indexing="ij")
-    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
-    index = np.arange(n * n).reshape(n, n)
-    a, b, c, d = index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel(), index[:-1, 1:].ravel()
-    faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
-    surface = Surface(vertices, faces, np.array([0.0, 0.5, -1.0]))
+    x, y, vertices, index, surface = _sheet(n)
 
     def bump(cy, h, fall):      # a top at (0, cy) of height h, falling by ``fall`` at 0.15 from it
         return h - fall * (x ** 2 + (y - cy) ** 2) / 0.15 ** 2
@@ -231,12 +237,7 @@ def test_a_hands_climb_to_either_of_two_fingertips_reads_the_same_end_but_not_on
     from autorig.readoff.tips import CAP, FINGERS, _tops
 
     n = 161
-    x, y = np.meshgrid(np.linspace(-0.5, 0.5, n), np.linspace(0.0, 1.0, n), indexing="ij")
-    vertices = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
-    index = np.arange(n * n).reshape(n, n)
-    a, b, c, d = index[:-1, :-1].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel(), index[:-1, 1:].ravel()
-    faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
-    surface = Surface(vertices, faces, np.array([0.0, 0.5, -1.0]))
+    x, y, vertices, index, surface = _sheet(n)
 
     def tips(apart):
         def bump(cy, h):      # a top at (0, cy) of height h, falling by 0.2 of a cap at a quarter of ``apart``

@@ -415,7 +415,7 @@ def _limb_pieces_to_body(field: DistanceField, c: np.ndarray, r: np.ndarray, pai
     if count < 2:
         return np.zeros((0, 2), dtype=np.int64)
     body = int(np.argmax(np.bincount(labels, weights=r ** 3)))
-    on_body = labels == body
+    body_index = np.flatnonzero(labels == body)
     extra = []
     for piece in unique_ints(labels):
         members = np.flatnonzero(labels == piece)
@@ -425,11 +425,10 @@ def _limb_pieces_to_body(field: DistanceField, c: np.ndarray, r: np.ndarray, pai
         high = (c[members] + r[members, None]).max(axis=0)
         if np.linalg.norm(high - low) < LIMB_PIECE:
             continue
-        sub = np.linalg.norm(c[members][:, None, :] - c[on_body][None, :, :], axis=2) - r[members, None] \
-            - r[on_body][None, :]
+        sub = np.linalg.norm(c[members][:, None, :] - c[body_index][None, :, :], axis=2) - r[members, None] \
+            - r[body_index][None, :]
         least = sub.min()
         i, j = np.nonzero(sub <= least + TIE * max(abs(least), float(r.max())))
-        body_index = np.flatnonzero(on_body)
         # only a gap the packing left: less than the smaller sphere's radius
         short = sub[i, j] < np.minimum(r[members[i]], r[body_index[j]])
         extra.extend(sorted((int(members[a]), int(body_index[b]))) for a, b in zip(i[short], j[short]))

@@ -98,16 +98,15 @@ class Surface:
         start = np.asarray(start, float)
         if not midline:
             return self._tip(start, cap, unheld=True, highest=FINGERS)
-        tip = self._tip(start, cap, highest=True)
-        other = self._tip(start * MIRROR, cap, highest=True)
+        tip = self._tip(start, cap, highest=np.inf)
+        other = self._tip(start * MIRROR, cap, highest=np.inf)
         # A mirrored pair when each is the other's mirror image: the other climb did not run off to another
         # part (a rhino's tail end is no mirror image of its horn).
         if np.linalg.norm(other * MIRROR - tip) <= PAIR:
             return 0.5 * (tip + other)
         return tip
 
-    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False,
-             highest: float | bool = False) -> np.ndarray:
+    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False, highest: float = 0.0) -> np.ndarray:
         from scipy.sparse.csgraph import connected_components
 
         _, i = self._tree.query(start)
@@ -118,21 +117,21 @@ class Surface:
                 first = self._unheld[int(j)]
         end = climbed = int(self.top[first])
         while True:
-            # highest: where the cap around the climb's top reaches a higher top (a round head's crown and the
-            # back of it, within CAP of each other), the cap is taken around the highest, whichever the climb
-            # reached first (which flipped when the mesh moved a millionth: a re-posed CesiumMan's head, 0.6 %
-            # of the height). A paired limb's end (``highest`` a distance) only to a top that near the one
-            # climbed to (``FINGERS``: a hand's other fingertips): a hand resting on a hip, climbed on without
-            # the bound, went on down the leg (an earlier trial, ``benchmarks/poses.py --all``: 486 -> 481 of 518).
+            # highest (a distance): where the cap around the climb's top reaches a higher top (a round head's
+            # crown and the back of it, within CAP of each other), the cap is taken around the highest, whichever
+            # the climb reached first (which flipped when the mesh moved a millionth: a re-posed CesiumMan's head,
+            # 0.6 % of the height), if no farther than ``highest`` from the one climbed to: a mid-plane part's end
+            # without bound, a paired limb's within ``FINGERS`` (a hand's other fingertips): a hand resting on a
+            # hip, climbed on without the bound, went on down the leg (an earlier trial, ``benchmarks/poses.py
+            # --all``: 486 -> 481 of 518).
             floor = self.reach[end] - cap
             inside = np.flatnonzero(self.reach > floor)
             sub = self.graph[inside][:, inside]
             _, label = connected_components(sub, directed=False)
             mine = inside[label == label[np.searchsorted(inside, end)]]
             top = int(mine[np.argmax(self.reach[mine])])
-            if not highest or self.reach[top] <= self.reach[end]:
-                break
-            if highest is not True and np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > highest:
+            if not highest or self.reach[top] <= self.reach[end] or \
+                    np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > highest:
                 break
             end = top
         weight = self.area[mine] * ((self.reach[mine] - floor) / cap) ** 2
