@@ -56,6 +56,7 @@ def confidence_reasons(field, graph, embedding, template, joints: np.ndarray, pa
         pulls["reach"] = _factor_pull(confidence, parts.get("reach", 1.0))
         pulls["forks"] = _factor_pull(confidence, parts.get("forks", 1.0))
         pulls["head"] = _factor_pull(confidence, parts.get("head", 1.0))
+        pulls["within"] = _factor_pull(confidence, parts.get("within", 1.0))
         pulls["feet_behind"] += _factor_pull(confidence, parts.get("feet", 1.0))
         pulls["_values"] = values     # not a pull: what the words quote
     values = pulls.pop("_values", {})
@@ -128,6 +129,14 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
         near = f" ({found[0][1]:.1f}x the neck and head's length from them)" if found else ""
         return f"{shown or 'a wrist'}: against the neck and head{near}: the arm's chain ran up to the neck " \
                f"(a hand that touches the body can hide the limb's end)"
+    if name == "within":
+        from .embed.sides import in_limbs
+        from .confidence import WITHIN
+        found = sorted(in_limbs(field, joints, template), key=lambda item: item[1])
+        shown = ", ".join(_said(template.names[j]) for j, ratio in found[:2] if ratio < WITHIN or ratio == found[0][1])
+        depth = f" ({found[0][1]:.1f}x the other limb's depth from its bone)" if found else ""
+        return f"{shown or 'a wrist'}: inside another limb{depth}: the arm's chain ran into a leg (a hand that " \
+               f"touches the body can hide the limb's end)"
     if name == "cost_per_bone":
         return "bones: far from the template's lengths and directions"
     if name == "facing":

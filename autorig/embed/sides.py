@@ -122,3 +122,27 @@ def at_head(field, joints: np.ndarray, template: Template) -> list[tuple[int, fl
         if np.mean(field.depth(line_points) < 0) <= HEAD_JOINED:
             out.append((int(end), float(gaps.min()) / length))
     return out
+
+
+def in_limbs(field, joints: np.ndarray, template: Template) -> list[tuple[int, float]]:
+    """(side limb's end joint, ``ratio``) for each of ``side_chains``' ends (a wrist, a toe) near a bone of another
+    side chain (an arm's end against the legs' bones, a foot's against the arms'): the end's distance to that
+    bone's nearest point over the mesh's depth there (``field``), the least over the bones whose nearest point
+    lies inside the mesh. Below 1 the end lies within the other limb's flesh: hands on the hips hid the arms'
+    ends and their chains ran down into the thighs. ``joints`` [J, 3], canonical frame."""
+    chains = side_chains(template)
+    out = []
+    for chain in chains:
+        p = joints[chain[-1]]
+        bones = [(a, b) for other in chains if other is not chain for a, b in zip(other[:-1], other[1:])]
+        if not bones:
+            continue
+        a = joints[[i for i, _ in bones]]
+        ab = joints[[j for _, j in bones]] - a
+        t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18), 0, 1)
+        nearest = a + t[:, None] * ab
+        depth = field.depth(nearest)
+        ratios = np.linalg.norm(nearest - p, axis=1)[depth > 0] / depth[depth > 0]
+        if len(ratios):
+            out.append((int(chain[-1]), float(ratios.min())))
+    return out
