@@ -563,3 +563,18 @@ def test_hands_on_hips_whose_arm_chains_ran_up_to_the_neck_is_doubtful_and_names
     assert rig.info["confidence"] < 0.5, rig.info["confidence"]
     assert any("wrist: against the neck and head" in r for r in rig.info["confidence_reasons"]), \
         rig.info["confidence_reasons"]
+
+
+GAUL = ROOT.parent / "shared" / "data" / "train" / "0ad_gaul_vercingetorix"
+
+
+@pytest.mark.skipif(not GAUL.exists(), reason="shared data (../shared/data) is not present")
+def test_hands_on_hips_whose_caps_reach_the_legs_end_at_their_paths(tmp_path):
+    """0 A.D.'s Gaulish chief with his hands on his hips (re-posed through his artist's weights): the climb from
+    his left arm's path's end stopped on a top whose cap reached a higher one 0.11 of his height away, and the
+    cap's centroid took the hand's end down his thigh (left wrist 23.6 % of the height off, the rig wrong at
+    confidence 0.55). No tip is read from such a cap (``readoff.tips.HAND``): both wrists and ankles and the
+    head by their own artist's joints."""
+    rig, verdict = rig_posed(GAUL, "hands on hips", tmp_path)
+    assert verdict["structure"], verdict["wrong"]
+    assert max(verdict["errors"][f"{s}_wrist"] for s in ("left", "right")) < 12.0

@@ -233,7 +233,8 @@ def test_a_hands_climb_to_either_of_two_fingertips_reads_the_same_end_but_not_on
     """A hand's fingertips are tops of the reach within a cap of each other, a finger's width apart; which one
     the climb from the arm's path's end reached flipped when the mesh moved a millionth (a MakeHuman body's left
     hand, its end 0.6 % of the height apart). A paired limb's cap is read around the higher top when the two lie
-    within ``FINGERS``; a higher top farther away (the leg a hand rests on) is not the hand's."""
+    within ``FINGERS``; a higher top farther away is not the hand's, and one farther than a hand's length (the
+    leg a hand rests on) leaves no tip to read."""
     from autorig.readoff.tips import CAP, FINGERS, _tops
 
     n = 161
@@ -253,5 +254,25 @@ def test_a_hands_climb_to_either_of_two_fingertips_reads_the_same_end_but_not_on
 
     low, high = tips(0.6 * FINGERS)             # two fingertips
     assert np.allclose(low, high)
-    low, high = tips(3 * FINGERS)               # a higher top a hand away: each cap read around its own
-    assert low[1] > high[1] + 0.02
+    low, high = tips(1.5 * FINGERS)             # a higher top beyond the fingers: each cap read around its own
+    assert low[1] > high[1] + 0.01
+    low, high = tips(3 * FINGERS)               # a hand's length away (``HAND``): the lower cap is no hand's end
+    assert low is None and abs(high[1] - (0.5 - 1.5 * FINGERS)) < 0.02
+
+
+def test_a_hands_climb_that_stops_on_a_bump_below_a_leg_reads_no_tip():
+    """A hand pressed into the hip: the surface nearest the arm's path's end is the hip's, and its climb stops on
+    a bump there, below the leg whose reach rises far above it; the cap around the bump was the whole leg, and
+    its centroid put a MakeHuman body's hand end at its crotch (both wrists 17 % of the height off, hands on the
+    hips). No tip is read: the arm's chain ends at its path's end."""
+    from autorig.readoff.tips import CAP, _tops
+
+    n = 161
+    x, y, vertices, index, surface = _sheet(n)
+    bump = 0.3 + 0.5 * CAP - 0.5 * CAP * (x ** 2 + (y - 0.7) ** 2) / 0.02 ** 2
+    at_bump = index[n // 2, int(round(0.7 * (n - 1)))]
+    reach = np.maximum(1.0 - y, bump).ravel()                        # the leg rises to 1 at y = 0
+    surface.reach, surface.top = reach, _tops(surface.graph, reach)
+    assert surface.top[at_bump] == at_bump                           # the bump is a top of its own
+    assert surface.tip(vertices[at_bump]) is None
+    assert surface.tip(vertices[at_bump], midline=True) is not None  # a head's cap reaches its highest top

@@ -80,7 +80,7 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
             polyline = centred_points(polyline, field.depth, vertices, whole=True)
         if to_tip:
             tip = surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1])
-            if _beyond_start(polyline, tip):
+            if tip is not None and _beyond_start(polyline, tip):
                 polyline = _end_at(polyline, tip)
         if field is not None and on_midline and template.is_tip(chain[-1]) and len(polyline) > 2:
             # A neck and head's or a tail's path centred across its chord (to its tip), in the mid-plane: a path

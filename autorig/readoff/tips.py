@@ -48,6 +48,12 @@ MIRROR = np.array([-1.0, 1.0, 1.0])
 # millionth (a MakeHuman body's left hand: the little finger or the middle one, its end 0.6 % of the height
 # apart); a hand resting on a hip, climbed on without the bound, had gone on down the leg.
 FINGERS = 0.05
+# A paired limb's cap that holds a higher top farther than this from the one its climb reached (a fraction of the
+# height: a hand's length) is no limb's end: the climb stopped on a bump on the way up another limb (a hand pressed
+# into the hip, climbed from the hip: the cap was the thigh or the whole leg, its top 0.11-0.60 away), and no tip is
+# read (``Surface.tip``). Over the 518 rigs of ``benchmarks/poses.py --all`` a hand's cap that reached a higher top
+# beyond ``FINGERS`` but within this (another finger, the other hand held against it) had it 0.052-0.073 away.
+HAND = 0.1
 
 
 class Surface:
@@ -88,13 +94,16 @@ class Surface:
             self._unheld) else None
         self._stick_vertex = sticks[piece]
 
-    def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray:
+    def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray | None:
         """[3] the tip of the limb whose end lies nearest the point ``start`` [3]. midline: the tip of a part
         on the body's mid-plane (x = 0: a head, a tail), whose end may be a mirrored pair (two ears, two
         horns): the mean of the tips reached from ``start`` and from its mirror image when they are such a
         pair, so that which of the two the climb reaches does not matter. A paired limb's end (not
         ``midline``) is not climbed on a held stick (the module's last paragraph), and its cap is read around the
-        highest top within ``FINGERS`` of the one its climb reached."""
+        highest top within ``FINGERS`` of the one its climb reached; None when its cap holds a higher top farther
+        than ``HAND``: a hand pressed into the hip, the surface nearest its path's end the
+        hip's, climbed to a bump there whose cap was the whole leg (its centroid put a MakeHuman body's hand end
+        at its crotch, the wrists 17 % of the height off). The limb then ends at its path's end."""
         start = np.asarray(start, float)
         if not midline:
             return self._tip(start, cap, unheld=True, highest=FINGERS)
@@ -106,7 +115,7 @@ class Surface:
             return 0.5 * (tip + other)
         return tip
 
-    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False, highest: float = 0.0) -> np.ndarray:
+    def _tip(self, start: np.ndarray, cap: float, unheld: bool = False, highest: float = 0.0) -> np.ndarray | None:
         from scipy.sparse.csgraph import connected_components
 
         _, i = self._tree.query(start)
@@ -130,8 +139,11 @@ class Surface:
             _, label = connected_components(sub, directed=False)
             mine = inside[label == label[np.searchsorted(inside, end)]]
             top = int(mine[np.argmax(self.reach[mine])])
-            if not highest or self.reach[top] <= self.reach[end] or \
-                    np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > highest:
+            if not highest or self.reach[top] <= self.reach[end]:
+                break
+            if np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > highest:
+                if np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > HAND:
+                    return None
                 break
             end = top
         weight = self.area[mine] * ((self.reach[mine] - floor) / cap) ** 2
