@@ -276,3 +276,25 @@ def test_a_hands_climb_that_stops_on_a_bump_below_a_leg_reads_no_tip():
     assert surface.top[at_bump] == at_bump                           # the bump is a top of its own
     assert surface.tip(vertices[at_bump]) is None
     assert surface.tip(vertices[at_bump], midline=True) is not None  # a head's cap reaches its highest top
+
+
+def test_a_hands_tip_read_at_another_limbs_end_is_not_taken():
+    """A hand pressed into the hip, climbed from the hip, read the toes' cap (MakeHuman bodies re-posed with their
+    hands on their hips: wrists 17-22 % of the height off). A paired limb's tip nearer another paired limb's end
+    sphere than its own path's end is that limb's; the other hand's end is not counted (hands held together),
+    nor the head's, nor is a tip by its own path's end."""
+    from autorig.embed.refine import _at_other_end
+    from autorig.template import load_template
+    template = load_template("biped")
+    names = {n: i for i, n in enumerate(template.names)}
+    mirror = template.mirror_of()
+    hand, other_hand = names["left_hand_end"], names["right_hand_end"]
+    ends = {hand: np.array([0.11, 0.55, 0.0]), other_hand: np.array([-0.11, 0.55, 0.0]),
+            names["left_toe_end"]: np.array([0.1, 0.01, 0.05]), names["right_toe_end"]: np.array([-0.1, 0.01, 0.05]),
+            names["head_end"]: np.array([0.0, 0.95, 0.05])}
+    path_end = ends[hand]
+    assert _at_other_end(np.array([0.11, 0.01, 0.07]), path_end, hand, ends, mirror)        # the toes' cap
+    assert not _at_other_end(np.array([0.0, 0.99, 0.02]), path_end, hand, ends, mirror)     # the crown's: a
+    # mid-plane end is not counted (``_beyond_start`` takes no tip up behind the arm's start)
+    assert not _at_other_end(np.array([0.13, 0.50, 0.02]), path_end, hand, ends, mirror)    # its own fingers
+    assert not _at_other_end(np.array([-0.09, 0.55, 0.0]), path_end, hand, ends, mirror)    # the other hand's

@@ -71,6 +71,10 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
         root = reduced.joints[0]
         if mirror[root] == root:
             positions[root] = centred_points(positions[root], field.depth, vertices, whole=True)[0]
+    # each limb's end (a reduced leaf's joint) -> its sphere's centre
+    branches = set(reduced.parents.tolist())
+    ends = {int(reduced.chains[k][-1]): graph.centers[embedding.spheres[k]] for k in range(1, len(reduced.joints))
+            if k not in branches}
     for k in range(1, len(reduced.joints)):
         chain = reduced.chains[k]
         polyline = graph.centers[embedding.paths[k]]
@@ -80,6 +84,9 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
             polyline = centred_points(polyline, field.depth, vertices, whole=True)
         if to_tip:
             tip = surface.tip(polyline[-1], midline=mirror[chain[-1]] == chain[-1])
+            if tip is not None and mirror[chain[-1]] != chain[-1] and _at_other_end(tip, polyline[-1], chain[-1],
+                                                                                   ends, mirror):
+                tip = None
             if tip is not None and _beyond_start(polyline, tip):
                 polyline = _end_at(polyline, tip)
         if field is not None and on_midline and template.is_tip(chain[-1]) and len(polyline) > 2:
@@ -123,6 +130,20 @@ def place_on_paths(graph: SphereGraph, embedding: Embedding, template: Template,
 def _straightness(arc: float, chord: float) -> float:
     """1 for a path at most 1.3 times as long as its chord, 0 from twice on (a curled tail), smooth between."""
     return float(np.clip((2.0 - arc / chord) / 0.7, 0.0, 1.0)) if chord > 0 else 0.0
+
+
+def _at_other_end(tip: np.ndarray, path_end: np.ndarray, joint: int, ends: dict, mirror) -> bool:
+    """Whether a paired limb's ``tip`` [3], read off the surface from its path's end ``path_end`` [3], lies
+    nearer the end sphere of another paired limb (``ends`` {end joint: [3]}, but ``joint``'s own and its mirror
+    image's) than its path's end: that limb's end, not this one's. A hand pressed into the hip, climbed from the
+    hip, read the toes' cap (MakeHuman bodies' wrists 17-22 % of the height off). Hands held together may read
+    each other's ends: their mirror pair is not counted. Nor are the mid-plane's ends (a head's, a tail's): a
+    head's end sphere may lie anywhere on it (behind a helmet's crest), and a bent arm's tip read up at the
+    shoulder lay nearer it than its path's end (0 A.D.'s Boudicca, arms bent: the tip rejected, her thin
+    forearms' joints were refined outside the mesh and her right rig scored 0.03)."""
+    gap = float(np.linalg.norm(tip - path_end))
+    return any(float(np.linalg.norm(tip - centre)) < gap for j, centre in ends.items()
+               if j != joint and j != mirror[joint] and mirror[j] != j)
 
 
 def _beyond_start(polyline: np.ndarray, tip: np.ndarray) -> bool:
