@@ -251,7 +251,8 @@ def head_part(field: DistanceField, joints: np.ndarray, template: Template) -> f
 
 
 def within_part(field: DistanceField, joints: np.ndarray, template: Template) -> float:
-    """The ``within`` part: 1 / (1 + (WITHIN / ratio)^HEAD_POWER) over ``in_limbs``' ends."""
+    """The ``within`` part: 1 / (1 + (WITHIN / ratio)^HEAD_POWER) over ``in_limbs``' ends (the ``head`` part's
+    power: both stand for a limb's chain that ran into another part of the body)."""
     return float(np.prod([1.0 / (1.0 + (WITHIN / max(ratio, 1e-9)) ** HEAD_POWER)
                           for _, ratio in in_limbs(field, joints, template)]))
 

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .confidence import (FEATURES, STRICT_THRESHOLD, ConfidenceModel, _fit_part, features,
+from .confidence import (FEATURES, STRICT_THRESHOLD, WITHIN, ConfidenceModel, _fit_part, features,
                          posture_free_cost_per_bone)
 from .embed.penalties import PROMINENCE, prominences
 
@@ -131,7 +131,6 @@ def _words(name: str, field, graph, embedding, template, joints, parts, values) 
                f"(a hand that touches the body can hide the limb's end)"
     if name == "within":
         from .embed.sides import in_limbs
-        from .confidence import WITHIN
         found = sorted(in_limbs(field, joints, template), key=lambda item: item[1])
         shown = ", ".join(_said(template.names[j]) for j, ratio in found[:2] if ratio < WITHIN or ratio == found[0][1])
         depth = f" ({found[0][1]:.1f}x the other limb's depth from its bone)" if found else ""
