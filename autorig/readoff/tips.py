@@ -51,8 +51,9 @@ FINGERS = 0.05
 # A paired limb's cap that holds a higher top farther than this from the one its climb reached (a fraction of the
 # height: a hand's length) is no limb's end: the climb stopped on a bump on the way up another limb (a hand pressed
 # into the hip, climbed from the hip: the cap was the thigh or the whole leg, its top 0.11-0.60 away), and no tip is
-# read (``Surface.tip``). Over the 518 rigs of ``benchmarks/poses.py --all`` a hand's cap that reached a higher top
-# beyond ``FINGERS`` but within this (another finger, the other hand held against it) had it 0.052-0.073 away.
+# read (``Surface.tip``). In the eleven posed rigs traced (scratch: the hands on hips and the raised and bent arms
+# that a bound on the reach instead had moved), a hand's cap that reached a higher top beyond ``FINGERS`` (another
+# finger, the other hand held against it) had it 0.052-0.073 away, one 0.106 (hands held together).
 HAND = 0.1
 
 
@@ -101,9 +102,9 @@ class Surface:
         pair, so that which of the two the climb reaches does not matter. A paired limb's end (not
         ``midline``) is not climbed on a held stick (the module's last paragraph), and its cap is read around the
         highest top within ``FINGERS`` of the one its climb reached; None when its cap holds a higher top farther
-        than ``HAND``: a hand pressed into the hip, the surface nearest its path's end the
-        hip's, climbed to a bump there whose cap was the whole leg (its centroid put a MakeHuman body's hand end
-        at its crotch, the wrists 17 % of the height off). The limb then ends at its path's end."""
+        than ``HAND``: a hand pressed into the hip, the surface nearest its path's end the hip's, climbed to a bump
+        there whose cap was the whole leg (its centroid put a MakeHuman body's hand end at its crotch, the wrists
+        17 % of the height off). The limb then ends at its path's end."""
         start = np.asarray(start, float)
         if not midline:
             return self._tip(start, cap, unheld=True, highest=FINGERS)
@@ -141,8 +142,9 @@ class Surface:
             top = int(mine[np.argmax(self.reach[mine])])
             if not highest or self.reach[top] <= self.reach[end]:
                 break
-            if np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > highest:
-                if np.linalg.norm(self.vertices[top] - self.vertices[climbed]) > HAND:
+            far = np.linalg.norm(self.vertices[top] - self.vertices[climbed])
+            if far > highest:
+                if far > HAND:
                     return None
                 break
             end = top
