@@ -13,7 +13,9 @@ Each character is rigged once as it is and once per variant of its mesh that doe
 - ``same``: the very same arrays again (the same bytes must give the same rig, to the bit).
 Every variant's joints are taken back into the original's frame and compared with the original's by name: the
 largest move of any joint (tips included) as a percentage of the height, and which joint. The characters: the
-shared rigged characters and meshes whose axes are known, every biped and four-legged corpus character
+shared rigged characters and meshes whose axes are known, the bipeds and four-legged animals of
+``shared/data/more`` (glTF, each with the map under ``data/maps`` that names its kind), every biped and
+four-legged corpus character
 (``shared/data/train``, and ``CORPUS``'s MakeHuman and Lugaru bodies), each with the template its category
 calls for and its axes given (``--detected``: axes detected in every rig, turned variants included).
 Rigs run in this process (no start-up per rig); one character takes 10-30 s with the default variants.
@@ -56,6 +58,14 @@ def characters(shared: Path, corpus: Path | None):
         if (shared / "data" / rel).is_file():
             yield Path(rel).parent.name if rel.startswith("rigged/") else Path(rel).stem, \
                 shared / "data" / rel, template, up, front
+    # shared/data/more's characters as glTF, with the template their map (data/maps) names by category
+    for map_file in sorted((ROOT / "data" / "maps").glob("*.json")):
+        meta = json.loads(map_file.read_text())
+        glb = shared / "data" / "more" / map_file.stem / "model.glb"
+        template = TEMPLATE_OF.get(meta.get("category", ""))
+        if template is not None and glb.is_file():
+            yield map_file.stem, glb, template, meta.get("up_axis", "+y").lstrip("+"), \
+                meta.get("front_axis", "+z").lstrip("+")
     folders = sorted((shared / "data" / "train").glob("*/joints.json"))
     if corpus is not None and corpus.is_dir():
         folders += sorted(corpus.glob("*/joints.json"))
@@ -167,8 +177,8 @@ def main(argv=None) -> int:
             return run(args, posed_characters(args.shared, args.corpus, args.posed, wanted, Path(scratch)))
     found = [c for c in characters(args.shared, args.corpus)
              if (wanted is None or any(w in c[0] for w in wanted))
-             and not (args.skip_corpus and not str(c[1]).startswith(str(args.shared / "data" / ("meshes" if
-                                                                  "meshes" in str(c[1]) else "rigged"))))]
+             and not (args.skip_corpus and not any(str(c[1]).startswith(str(args.shared / "data" / d))
+                                                   for d in ("meshes", "rigged", "more")))]
     return run(args, found)
 
 

@@ -3,7 +3,8 @@
     python benchmarks/stability_auto.py [--shared ../shared] [--voxels 96] [--creatures 8] [--seeds 3]
                                         [--only NAME,...]
 
-Every shape (the shared octopus, spider, horse, cow and armadillo, and ``--creatures`` random creatures of
+Every shape (the shared octopus, spider, horse, cow and armadillo, OpenClonk's bat and squid from
+``shared/data/more``, and ``--creatures`` random creatures of
 ``autorig.extract.shapes``, numpy seeds 0, 1, ...) is rigged as it is and as each variant:
 
 * ``noise<s>``: every coordinate moved by uniform noise of +-1e-6 x the shape's height (numpy seed s; ``--seeds``
@@ -32,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 SHARED = [("octopus_low", "y", "z"), ("spider", "y", "z"), ("horse", "z", "y"), ("cow", "y", "x"),
           ("armadillo", "y", "z")]
+MORE = ["openclonk_bat", "openclonk_squid"]
 LIMIT = 0.5          # % of the height a joint may move
 
 
@@ -91,6 +93,11 @@ def shapes(shared: Path, creatures: int, only: set[str]):
             print(f"# {path} not found: skipped", file=sys.stderr)
             continue
         yield name, *load_mesh(path), up, front
+    for name in MORE:     # shared/data/more's animals no template fits (glTF, +y up, facing +z)
+        path = shared / "data" / "more" / name / "model.glb"
+        if (only and name not in only) or not path.exists():
+            continue
+        yield name, *load_mesh(path), "y", "z"
     for seed in range(creatures):
         if only and f"creature{seed}" not in only:
             continue
