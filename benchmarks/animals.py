@@ -2,6 +2,7 @@
 
     python benchmarks/animals.py [--shared ../shared] [--corpus ../corpus] [--templates quadruped,horse]
                                  [--cv species,source] [--axes given,detected] [--turns none,facing_back,z_up]
+                                 [--poses "rest;walk;head low;walk, head low"]
                                  [--only NAME,...] [--limit N] [--folds 4] [--json FILE] [--quiet]
 
 The animals: 0 A.D.'s (``shared/data/train``, their ``quadruped_map``), the shared Fox (``shared/data/rigged``),
@@ -15,6 +16,9 @@ shipped_parts``) are relearned from the other animals on the hand-set template (
 each held-out animal is rigged with the axes given and detected, as its file is (``none``), and with the axes
 detected (given too with ``--turned-given``) turned to face -z (``facing_back``) and turned Z-up, facing -y
 (``z_up``).
+
+``--poses``: each held-out animal also re-posed through its artist's weights (``animal_poses``: walking, the
+head low, both), scored against its artist's joints moved with the skeleton and its extent as it stood.
 
 Scored per rig, against the artist's joints, in % of the animal's largest extent (its height or its length):
 structure right when each paw and the head lies nearer its own artist's joint than any other of the five, and
@@ -40,6 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import animal_poses  # noqa: E402
 from cross_validation import HANDSET, dealt, shipped_parts  # noqa: E402
 
 LEGS = ("front_left", "front_right", "back_left", "back_right")
@@ -61,10 +66,13 @@ class Animal:
     source: str
     species: str
     example: object          # autorig.learn.examples.Example
+    rest_extent: float | None = None   # a re-posed animal's: scored against its extent as it stood
 
     @property
     def extent(self) -> float:
         """The animal's largest extent: its height or its length (along its own up and front axes)."""
+        if self.rest_extent is not None:
+            return self.rest_extent
         ex = self.example
         span = np.ptp(ex.vertices, axis=0)
         return float(max(span["xyz".index(ex.up.lstrip("-"))], span["xyz".index(ex.front.lstrip("-"))]))
@@ -154,6 +162,14 @@ def folds_of(animals: list[Animal], cv: str, folds: int) -> list[tuple[str, list
             for s in sorted({a.source for a in animals})]
 
 
+def posed_animal(animal: Animal, pose: str) -> Animal | None:
+    """``animal`` re-posed (``animal_poses``), scored against its extent at rest; itself for "rest"."""
+    if pose == "rest":
+        return animal
+    example = animal_poses.posed_example(animal.example, pose)
+    return None if example is None else Animal(animal.name, animal.source, animal.species, example, animal.extent)
+
+
 def rig_animal(animal: Animal, template_path: Path, turn: str, axes: str) -> dict:
     import autorig
     ex = animal.example
@@ -177,7 +193,7 @@ def rig_animal(animal: Animal, template_path: Path, turn: str, axes: str) -> dic
 def line(row: dict) -> str:
     r = row["result"]
     head = (f"{row['model']:28s} {row['source']:9s} {row['species']:12s} {row['template']:9s} {row['cv']:7s} "
-            f"{row['turn']:11s} {row['axes']:8s}")
+            f"{row['turn']:11s} {row['axes']:8s}" + (f" {row['pose']}" if row.get("pose", "rest") != "rest" else ""))
     if "skipped" in r:
         return f"{head} skipped: {r['skipped']}"
     if "error" in r:
@@ -192,8 +208,8 @@ def line(row: dict) -> str:
 def summary(rows: list[dict]) -> list[str]:
     """One line per template, cross-validation, axes and turn (over every animal)."""
     def label(r):
-        turn = r.get("turn", "none")
-        return r["axes"] if turn == "none" else f"{r['axes']}/{turn}"
+        turn, pose = r.get("turn", "none"), r.get("pose", "rest")
+        return (r["axes"] if turn == "none" else f"{r['axes']}/{turn}") + ("" if pose == "rest" else f" {pose}")
 
     def mean_worst(rs):
         if not rs:
@@ -205,7 +221,7 @@ def summary(rows: list[dict]) -> list[str]:
            f"{'(right ones: mean':>17s} {'worst)':>6s} {'wrong at >= 0.5':>15s} {'failed':>6s}"]
     order = {"given": 0, "detected": 1, "given/facing_back": 2, "given/z_up": 3, "detected/facing_back": 4,
              "detected/z_up": 5}
-    keys = sorted({(r["template"], r["cv"], label(r)) for r in rows}, key=lambda k: (k[0], k[1], order.get(k[2], 9)))
+    keys = sorted({(r["template"], r["cv"], label(r)) for r in rows}, key=lambda k: (k[0], k[1], order.get(k[2].split(" ")[0], 9), k[2]))
     for template, cv, axes in keys:
         group = [r["result"] for r in rows if (r["template"], r["cv"], label(r)) == (template, cv, axes)
                  and "skipped" not in r["result"]]
@@ -227,6 +243,7 @@ def main(argv=None) -> int:
     parser.add_argument("--cv", default="species,source", help="species, source or both")
     parser.add_argument("--axes", default="given,detected")
     parser.add_argument("--turns", default="none,facing_back,z_up", help=f"of {', '.join(TURNS)}")
+    parser.add_argument("--poses", default="rest", help="poses, separated by ';': rest and any of " + "; ".join(animal_poses.POSES))
     parser.add_argument("--only", help="rig only these animals (comma-separated names; the others still teach)")
     parser.add_argument("--limit", type=int, help="rig only the first N animals of each fold")
     parser.add_argument("--folds", type=int, default=4)
@@ -240,8 +257,11 @@ def main(argv=None) -> int:
     if args.summary_from:
         print("\n".join(summary(json.loads(args.summary_from.read_text()))))
         return 0
-    lists = {k: [x for x in getattr(args, k).split(",") if x] for k in ("templates", "cv", "axes", "turns")}
+    lists = {k: [x.strip() for x in getattr(args, k).split(",") if x.strip()]
+             for k in ("templates", "cv", "axes", "turns")}
+    lists["poses"] = [x.strip() for x in args.poses.split(";" if ";" in args.poses else "|") if x.strip()]
     bad = ([t for t in lists["turns"] if t not in TURNS] + [c for c in lists["cv"] if c not in ("species", "source")]
+           + [p for p in lists["poses"] if p != "rest" and p not in animal_poses.POSES]
            + [a for a in lists["axes"] if a not in ("given", "detected")])
     if bad:
         print(f"error: unknown {', '.join(bad)}", file=sys.stderr)
@@ -271,14 +291,16 @@ def main(argv=None) -> int:
                     path = Path(tmp) / f"{template}_{cv}_{label.replace(' ', '_')}.json"
                     write_file_atomic(path, json.dumps(learned.template.to_dict()).encode())
                     say(f"{template} {label}: learned from {len(trained)} in {time.perf_counter() - start:.0f} s")
-                    for animal in held:
+                    for animal, pose in ((a, p) for a in held for p in lists["poses"]):
+                        posed = posed_animal(animal, pose)
                         for turn in lists["turns"]:
                             for axes in lists["axes"]:
                                 if turn != "none" and axes == "given" and not args.turned_given:
                                     continue
                                 row = {"model": animal.name, "source": animal.source, "species": animal.species,
                                        "template": template, "cv": cv, "fold": label, "turn": turn, "axes": axes,
-                                       "result": rig_animal(animal, path, turn, axes)}
+                                       "pose": pose, "result": rig_animal(posed, path, turn, axes) if posed else
+                                       {"skipped": f"its artist has no joint to turn for {pose}"}}
                                 rows.append(row)
                                 say(line(row))
                     if args.json:

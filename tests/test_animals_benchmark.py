@@ -90,3 +90,35 @@ def test_the_summary_counts_right_structures_and_confident_wrong_ones():
     line = animals.summary(rows)[1].split()
     assert line[:4] == ["quadruped", "species", "given", "1/4"]
     assert "1/3" in line and line[-1] == "1"
+
+
+def test_poses_turn_the_artists_bones_and_skin_the_mesh_with_them():
+    """A stick animal (+y up, +z front) with one vertex on each bone's end, each weighted to its bone: walking
+    swings the front left leg forward and the back left leg back, the head low lowers the head; the truth moves
+    with the skeleton and the vertices with their bones."""
+    import animal_poses
+    from autorig.learn.examples import Example
+    names = ["hips", "chest", "neck", "head", "fl_top", "fl_paw", "bl_top", "bl_paw", "fr_top", "fr_paw",
+             "br_top", "br_paw"]
+    parents = np.array([-1, 0, 1, 2, 1, 4, 0, 6, 1, 8, 0, 10])
+    positions = np.array([(0, 1.5, -1.5), (0, 1.5, 1.0), (0, 1.7, 1.5), (0, 2.0, 2.0), (0.3, 1.3, 1.0),
+                          (0.3, 0.0, 1.0), (0.3, 1.3, -1.5), (0.3, 0.0, -1.5), (-0.3, 1.3, 1.0), (-0.3, 0.0, 1.0),
+                          (-0.3, 1.3, -1.5), (-0.3, 0.0, -1.5)], float)
+    vertices = positions[[5, 7, 3]]                   # a paw's vertex on each left leg and the snout's
+    weights = np.zeros((3, len(names)))
+    weights[[0, 1, 2], [4, 6, 2]] = 1.0               # each vertex follows the bone above it
+    key_of = {"front_left_shoulder": 4, "front_left_paw": 5, "back_left_hip": 6, "back_left_paw": 7,
+              "front_right_shoulder": 8, "front_right_paw": 9, "back_right_hip": 10, "back_right_paw": 11,
+              "neck": 2, "head": 3}
+    example = Example("stick", vertices, np.zeros((0, 3), int), "y", "z", names, parents, positions, weights, key_of)
+    walking = animal_poses.posed_example(example, "walk")
+    assert walking.positions[5][2] > positions[5][2] + 0.3 and walking.positions[5][1] > 0.0   # front paw forward
+    assert walking.positions[7][2] < positions[7][2] - 0.3 and walking.positions[11][2] > positions[11][2] + 0.3
+    assert np.allclose(walking.vertices[0], walking.positions[5]) and np.allclose(walking.vertices[1],
+                                                                                 walking.positions[7])
+    assert np.allclose(example.positions, positions)                                 # the example untouched
+    low = animal_poses.posed_example(example, "head low")
+    assert low.positions[3][1] < positions[3][1] - 0.3 and np.allclose(low.positions[:3], positions[:3])
+    assert np.allclose(low.vertices[2], low.positions[3])
+    del key_of["neck"], key_of["head"]
+    assert animal_poses.posed_example(example, "head low") is None

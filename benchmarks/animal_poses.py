@@ -1,0 +1,95 @@
+"""Four-legged animals re-posed through their artists' weights: walking, the head low, both (``animals.py --poses``).
+
+A game's animals are rigged from whatever frame their file holds, and not every file holds the animal standing
+square: a walk cycle's first frame has the legs apart, a grazing animal its head down. Each pose turns bones of
+the animal's artist's skeleton about its left axis (forward kinematics down the artist's hierarchy, as
+``poses.py`` turns a biped's) and skins the mesh with the artist's weights (linear blend skinning); the truth
+moves with the skeleton. The poses:
+
+- ``walk``: the front left leg 25 deg forward, the front right 20 deg back, the back left 20 deg back, the back
+  right 25 deg forward (a walk's diagonal pairs), each turned at its top joint the artist has (the shoulder or
+  hip, else the elbow or knee);
+- ``head low``: the neck turned 40 deg down at its base (as an animal walks or grazes with its head low);
+- ``walk, head low``: both.
+
+A pose names joints of the template map (``quadruped_map``); an animal whose artist has none of a pose's joints
+is skipped for that pose.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+LEG_TOPS = {"front": ("shoulder", "elbow", "wrist"), "back": ("hip", "knee", "ankle")}
+WALK = {"front_left": -25.0, "front_right": 20.0, "back_left": 20.0, "back_right": -25.0}   # + : back
+HEAD_LOW = 40.0   # deg, the neck turned down
+POSES = {
+    "walk": {"legs": WALK},
+    "head low": {"neck": HEAD_LOW},
+    "walk, head low": {"legs": WALK, "neck": HEAD_LOW},
+}
+
+
+def axis_vector(name: str) -> np.ndarray:
+    v = np.zeros(3)
+    v["xyz".index(name.lstrip("+-"))] = -1.0 if name.startswith("-") else 1.0
+    return v
+
+
+def rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
+    """The rotation by ``degrees`` about the unit ``axis`` (right-handed)."""
+    a = np.radians(degrees)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(a) * k + (1 - np.cos(a)) * k @ k
+
+
+def turns(example, pose: str) -> dict[int, np.ndarray] | None:
+    """{artist joint index: rotation [3, 3] of its frame, world axes} for ``pose``; None when the artist has no
+    joint to turn for a part of it. About the left axis (up x front): +degrees takes the front toward down (a
+    head lowered) and down toward the back (a leg swung back)."""
+    up, front = axis_vector(example.up), axis_vector(example.front)
+    left = np.cross(up, front)
+    out = {}
+    spec = POSES[pose]
+    for leg, degrees in spec.get("legs", {}).items():
+        top = next((example.key_of[f"{leg}_{j}"] for j in LEG_TOPS[leg.split("_")[0]]
+                    if f"{leg}_{j}" in example.key_of), None)
+        if top is None:
+            return None
+        out[top] = rotation(left, degrees)
+    if "neck" in spec:
+        neck = example.key_of.get("neck", example.key_of.get("head"))
+        if neck is None:
+            return None
+        out[neck] = rotation(left, spec["neck"])
+    return out
+
+
+def posed_example(example, pose: str):
+    """A copy of ``example`` (``autorig.learn.examples.Example``) in ``pose``, its mesh skinned with its
+    artist's weights and its joints moved with the skeleton; None when the pose cannot be made (``turns``)."""
+    turned = turns(example, pose)
+    if turned is None:
+        return None
+    parents, rest = np.asarray(example.parents), np.asarray(example.positions, float)
+    order = sorted(range(len(parents)), key=lambda k: _depth(parents, k))
+    world = np.tile(np.eye(3), (len(parents), 1, 1))
+    posed = rest.copy()
+    for k in order:
+        p = parents[k]
+        inherited = world[p] if p >= 0 else np.eye(3)
+        if p >= 0:
+            posed[k] = posed[p] + inherited @ (rest[k] - rest[p])
+        world[k] = turned[k] @ inherited if k in turned else inherited
+    vertices = np.asarray(example.vertices, float)
+    moved = np.einsum("jab,vjb->vja", world, vertices[:, None, :] - rest[None]) + posed[None]
+    return replace(example, name=f"{example.name} ({pose})", vertices=np.einsum("vj,vja->va", example.weights, moved),
+                   positions=posed)
+
+
+def _depth(parents, k: int) -> int:
+    d = 0
+    while parents[k] >= 0:
+        k, d = parents[k], d + 1
+    return d
