@@ -8,7 +8,7 @@ moves with the skeleton. The poses:
 
 - ``walk``: the front left leg 25 deg forward, the front right 20 deg back, the back left 20 deg back, the back
   right 25 deg forward (a walk's diagonal pairs), each turned at its top joint the artist has (the shoulder or
-  hip, else the elbow or knee);
+  hip, else the elbow or knee; a foot the artist's rig holds apart, an IK foot, is carried with its leg);
 - ``head low``: the neck turned 40 deg down at its base (as an animal walks or grazes with its head low);
 - ``walk, head low``: both.
 
@@ -23,6 +23,7 @@ import numpy as np
 
 LEG_TOPS = {"front": ("shoulder", "elbow", "wrist"), "back": ("hip", "knee", "ankle")}
 WALK = {"front_left": -25.0, "front_right": 20.0, "back_left": 20.0, "back_right": -25.0}   # + : back
+LEG_TOPS_BY_LEG = ("front_left", "front_right", "back_left", "back_right")
 HEAD_LOW = 40.0   # deg, the neck turned down
 POSES = {
     "walk": {"legs": WALK},
@@ -72,7 +73,7 @@ def posed_example(example, pose: str):
     turned = turns(example, pose)
     if turned is None:
         return None
-    parents, rest = np.asarray(example.parents), np.asarray(example.positions, float)
+    parents, rest = _carried(example, turned), np.asarray(example.positions, float)
     order = sorted(range(len(parents)), key=lambda k: _depth(parents, k))
     world = np.tile(np.eye(3), (len(parents), 1, 1))
     posed = rest.copy()
@@ -86,6 +87,29 @@ def posed_example(example, pose: str):
     moved = np.einsum("jab,vjb->vja", world, vertices[:, None, :] - rest[None]) + posed[None]
     return replace(example, name=f"{example.name} ({pose})", vertices=np.einsum("vj,vja->va", example.weights, moved),
                    positions=posed)
+
+
+def _carried(example, turned: dict) -> np.ndarray:
+    """[J] the artist's parents, with each separate tree that holds a mapped joint of a turned leg hung from
+    the leg's turned joint: a game rig's IK feet are roots of their own (Quaternius's), and the foot must go
+    where the leg goes."""
+    parents = np.array(example.parents, dtype=np.int64)
+
+    def root(k: int) -> int:
+        while parents[k] >= 0:
+            k = int(parents[k])
+        return k
+    for leg in LEG_TOPS_BY_LEG:
+        joints = [example.key_of[f"{leg}_{j}"] for j in LEG_TOPS[leg.split("_")[0]] + ("paw",)
+                  if f"{leg}_{j}" in example.key_of]
+        top = next((j for j in joints if j in turned), None)
+        if top is None:
+            continue
+        for j in joints:
+            r = root(j)
+            if r != root(top):
+                parents[r] = top
+    return parents
 
 
 def _depth(parents, k: int) -> int:

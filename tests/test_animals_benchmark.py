@@ -120,5 +120,9 @@ def test_poses_turn_the_artists_bones_and_skin_the_mesh_with_them():
     low = animal_poses.posed_example(example, "head low")
     assert low.positions[3][1] < positions[3][1] - 0.3 and np.allclose(low.positions[:3], positions[:3])
     assert np.allclose(low.vertices[2], low.positions[3])
+    # a game rig's IK foot, a root of its own, is carried with its leg all the same
+    ik = Example("ik", vertices, example.faces, "y", "z", names, np.where(np.arange(len(names)) == 5, -1, parents),
+                 positions, weights, key_of)
+    assert np.allclose(animal_poses.posed_example(ik, "walk").positions, walking.positions)
     del key_of["neck"], key_of["head"]
     assert animal_poses.posed_example(example, "head low") is None
