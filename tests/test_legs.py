@@ -244,6 +244,15 @@ def test_a_hoofed_legs_wrist_sits_higher_than_a_pawed_ones():
     assert hoofed > 0.4 and pawed < 0.3 and hoofed - pawed > 0.2
 
 
+def test_a_hoof_tipped_onto_its_toe_is_read_as_the_hoof_standing():
+    """A leg swung back stands on its toe: the rings at the ground are the toe's sliver, not the leg's thinnest,
+    and the hoof reads as a hoof (its wrist where the standing hoof's is), not as a foot six times its leg."""
+    from autorig.readoff.legs import FOOT_LEVEL, foot_features
+    standing = _leg(lambda y: 0.04 if y < 0.2 else 0.04 + 0.3 * (y - 0.2))
+    tipped = _leg(lambda y: 0.007 if y < FOOT_LEVEL / 2 else 0.04 if y < 0.2 else 0.04 + 0.3 * (y - 0.2))
+    np.testing.assert_allclose(foot_features(tipped), foot_features(standing))
+
+
 SHARED_MESHES = __import__("pathlib").Path(__file__).resolve().parents[1].parent / "shared" / "data" / "meshes"
 
 

@@ -258,11 +258,14 @@ def joint_features(leg: Leg) -> np.ndarray:
 def foot_features(leg: Leg) -> np.ndarray:
     """[FOOT_FEATURES] what a wrist's height is learned from, as a share of the leg's free height: (1, the
     foot's length fore and aft at ``FOOT_LEVEL`` over ``free``, that length over the leg's thinnest fore-aft
-    width below ``THIN_SHARE`` of ``free``). A hoof is short and no longer than the cannon above it, and the
-    carpus sits half-way up an ungulate's leg; a paw is long, and the wrist sits just above it."""
+    width between ``FOOT_LEVEL`` and ``THIN_SHARE`` of ``free``). A hoof is short and no longer than the cannon
+    above it, and the carpus sits half-way up an ungulate's leg; a paw is long, and the wrist sits just above it.
+    The rings under ``FOOT_LEVEL`` are the sole's: a leg swung back (a walk) stands on the tip of its hoof, whose
+    sliver at the ground read as the leg's thinnest (a fifth of the cannon), the hoof as a foot six times its
+    leg and the wrist at the paw (``benchmarks/animals.py --poses walk``)."""
     levels, fore_aft = leg.levels, leg.widths[:, 1]
     foot = float(np.interp(FOOT_LEVEL, levels, fore_aft))
-    low = levels <= THIN_SHARE * leg.free
+    low = (levels >= FOOT_LEVEL) & (levels <= THIN_SHARE * leg.free)
     thinnest = float(fore_aft[low].min() if low.any() else fore_aft.min())
     return np.array([1.0, foot / max(leg.free, 1e-6), foot / max(thinnest, 1e-6)])
 
