@@ -21,9 +21,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from humanoid import AXES
+from poses import posed_skeleton, skinned
+
 LEG_TOPS = {"front": ("shoulder", "elbow", "wrist"), "back": ("hip", "knee", "ankle")}
 WALK = {"front_left": -25.0, "front_right": 20.0, "back_left": 20.0, "back_right": -25.0}   # + : back
-LEG_TOPS_BY_LEG = ("front_left", "front_right", "back_left", "back_right")
 HEAD_LOW = 40.0   # deg, the neck turned down
 POSES = {
     "walk": {"legs": WALK},
@@ -32,24 +34,17 @@ POSES = {
 }
 
 
-def axis_vector(name: str) -> np.ndarray:
-    v = np.zeros(3)
-    v["xyz".index(name.lstrip("+-"))] = -1.0 if name.startswith("-") else 1.0
-    return v
-
-
 def rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
     """The rotation by ``degrees`` about the unit ``axis`` (right-handed)."""
-    a = np.radians(degrees)
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + np.sin(a) * k + (1 - np.cos(a)) * k @ k
+    from scipy.spatial.transform import Rotation
+    return Rotation.from_rotvec(np.radians(degrees) * np.asarray(axis, float)).as_matrix()
 
 
 def turns(example, pose: str) -> dict[int, np.ndarray] | None:
     """{artist joint index: rotation [3, 3] of its frame, world axes} for ``pose``; None when the artist has no
     joint to turn for a part of it. About the left axis (up x front): +degrees takes the front toward down (a
     head lowered) and down toward the back (a leg swung back)."""
-    up, front = axis_vector(example.up), axis_vector(example.front)
+    up, front = (np.array(AXES[axis], float) for axis in (example.up, example.front))
     left = np.cross(up, front)
     out = {}
     spec = POSES[pose]
@@ -73,20 +68,11 @@ def posed_example(example, pose: str):
     turned = turns(example, pose)
     if turned is None:
         return None
-    parents, rest = _carried(example, turned), np.asarray(example.positions, float)
-    order = sorted(range(len(parents)), key=lambda k: _depth(parents, k))
-    world = np.tile(np.eye(3), (len(parents), 1, 1))
-    posed = rest.copy()
-    for k in order:
-        p = parents[k]
-        inherited = world[p] if p >= 0 else np.eye(3)
-        if p >= 0:
-            posed[k] = posed[p] + inherited @ (rest[k] - rest[p])
-        world[k] = turned[k] @ inherited if k in turned else inherited
-    vertices = np.asarray(example.vertices, float)
-    moved = np.einsum("jab,vjb->vja", world, vertices[:, None, :] - rest[None]) + posed[None]
-    return replace(example, name=f"{example.name} ({pose})", vertices=np.einsum("vj,vja->va", example.weights, moved),
-                   positions=posed)
+    rest = np.asarray(example.positions, float)
+    world, posed = posed_skeleton(_carried(example, turned), rest,
+                                  lambda k, inherited: turned[k] @ inherited if k in turned else inherited)
+    vertices = skinned(np.asarray(example.vertices, float), example.weights, world, rest, posed)
+    return replace(example, name=f"{example.name} ({pose})", vertices=vertices, positions=posed)
 
 
 def _carried(example, turned: dict) -> np.ndarray:
@@ -99,7 +85,7 @@ def _carried(example, turned: dict) -> np.ndarray:
         while parents[k] >= 0:
             k = int(parents[k])
         return k
-    for leg in LEG_TOPS_BY_LEG:
+    for leg in WALK:    # every leg
         joints = [example.key_of[f"{leg}_{j}"] for j in LEG_TOPS[leg.split("_")[0]] + ("paw",)
                   if f"{leg}_{j}" in example.key_of]
         top = next((j for j in joints if j in turned), None)
@@ -111,9 +97,3 @@ def _carried(example, turned: dict) -> np.ndarray:
                 parents[r] = top
     return parents
 
-
-def _depth(parents, k: int) -> int:
-    d = 0
-    while parents[k] >= 0:
-        k, d = parents[k], d + 1
-    return d

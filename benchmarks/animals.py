@@ -193,7 +193,7 @@ def rig_animal(animal: Animal, template_path: Path, turn: str, axes: str) -> dic
 def line(row: dict) -> str:
     r = row["result"]
     head = (f"{row['model']:28s} {row['source']:9s} {row['species']:12s} {row['template']:9s} {row['cv']:7s} "
-            f"{row['turn']:11s} {row['axes']:8s}" + (f" {row['pose']}" if row.get("pose", "rest") != "rest" else ""))
+            f"{row['turn']:11s} {row['axes']:8s}{'' if row.get('pose', 'rest') == 'rest' else ' ' + row['pose']}")
     if "skipped" in r:
         return f"{head} skipped: {r['skipped']}"
     if "error" in r:
@@ -221,7 +221,8 @@ def summary(rows: list[dict]) -> list[str]:
            f"{'(right ones: mean':>17s} {'worst)':>6s} {'wrong at >= 0.5':>15s} {'failed':>6s}"]
     order = {"given": 0, "detected": 1, "given/facing_back": 2, "given/z_up": 3, "detected/facing_back": 4,
              "detected/z_up": 5}
-    keys = sorted({(r["template"], r["cv"], label(r)) for r in rows}, key=lambda k: (k[0], k[1], order.get(k[2].split(" ")[0], 9), k[2]))
+    keys = sorted({(r["template"], r["cv"], label(r)) for r in rows},
+                  key=lambda k: (k[0], k[1], order.get(k[2].split(" ")[0], 9), k[2]))
     for template, cv, axes in keys:
         group = [r["result"] for r in rows if (r["template"], r["cv"], label(r)) == (template, cv, axes)
                  and "skipped" not in r["result"]]
@@ -243,7 +244,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cv", default="species,source", help="species, source or both")
     parser.add_argument("--axes", default="given,detected")
     parser.add_argument("--turns", default="none,facing_back,z_up", help=f"of {', '.join(TURNS)}")
-    parser.add_argument("--poses", default="rest", help="poses, separated by ';': rest and any of " + "; ".join(animal_poses.POSES))
+    parser.add_argument("--poses", default="rest",
+                        help="poses, separated by ';': rest and any of " + "; ".join(animal_poses.POSES))
     parser.add_argument("--only", help="rig only these animals (comma-separated names; the others still teach)")
     parser.add_argument("--limit", type=int, help="rig only the first N animals of each fold")
     parser.add_argument("--folds", type=int, default=4)
@@ -259,7 +261,7 @@ def main(argv=None) -> int:
         return 0
     lists = {k: [x.strip() for x in getattr(args, k).split(",") if x.strip()]
              for k in ("templates", "cv", "axes", "turns")}
-    lists["poses"] = [x.strip() for x in args.poses.split(";" if ";" in args.poses else "|") if x.strip()]
+    lists["poses"] = [x.strip() for x in args.poses.split(";") if x.strip()]    # pose names hold commas
     bad = ([t for t in lists["turns"] if t not in TURNS] + [c for c in lists["cv"] if c not in ("species", "source")]
            + [p for p in lists["poses"] if p != "rest" and p not in animal_poses.POSES]
            + [a for a in lists["axes"] if a not in ("given", "detected")])

@@ -139,24 +139,39 @@ def pose_character(meta: dict, vertices: np.ndarray, weights: np.ndarray, pose: 
                 raise ValueError(f"{meta.get('name')}: no {side}_{a} or {side}_{b} in its biped_map")
             targets[index[ja]] = (index[jb], o * outward + u * up + f * front)
     flat = {index[bmap[f"{s}_ankle"]] for s in ("left", "right") if bmap.get(f"{s}_ankle")}
-    order = sorted(range(len(names)), key=lambda k: _depth(parents, k))
-    world = np.tile(np.eye(3), (len(names), 1, 1))     # each joint's frame turn, world axes, rest -> posed
+
+    def turn(k: int, inherited: np.ndarray) -> np.ndarray:
+        if k in targets:
+            child, direction = targets[k]
+            return _rotation_between(inherited @ (rest[child] - rest[k]), direction) @ inherited
+        if k in flat:
+            return np.eye(3)            # the foot keeps its rest orientation: flat on the ground
+        return inherited
+    world, posed = posed_skeleton(parents, rest, turn)
+    return skinned(vertices, weights, world, rest, posed), posed
+
+
+def posed_skeleton(parents, rest: np.ndarray, turn) -> tuple[np.ndarray, np.ndarray]:
+    """(world [J, 3, 3], posed [J, 3]): forward kinematics down the hierarchy ``parents`` [J] from the ``rest``
+    joints [J, 3], each joint's frame turn (world axes, rest -> posed) ``turn(k, its parent's turn)``."""
+    order = sorted(range(len(parents)), key=lambda k: _depth(parents, k))
+    world = np.tile(np.eye(3), (len(parents), 1, 1))
     posed = rest.copy()
     for k in order:
         p = parents[k]
         inherited = world[p] if p >= 0 else np.eye(3)
         if p >= 0:
             posed[k] = posed[p] + inherited @ (rest[k] - rest[p])
-        if k in targets:
-            child, direction = targets[k]
-            now = inherited @ (rest[child] - rest[k])
-            world[k] = _rotation_between(now, direction) @ inherited
-        elif k in flat:
-            world[k] = np.eye(3)            # the foot keeps its rest orientation: flat on the ground
-        else:
-            world[k] = inherited
+        world[k] = turn(k, inherited)
+    return world, posed
+
+
+def skinned(vertices: np.ndarray, weights: np.ndarray, world: np.ndarray, rest: np.ndarray,
+            posed: np.ndarray) -> np.ndarray:
+    """[V, 3] the rest ``vertices`` skinned by linear blending (``weights`` [V, J]) to the joints turned by
+    ``world`` [J, 3, 3] from ``rest`` [J, 3] to ``posed`` [J, 3]."""
     moved = np.einsum("jab,vjb->vja", world, vertices[:, None, :] - rest[None]) + posed[None]
-    return np.einsum("vj,vja->va", weights, moved), posed
+    return np.einsum("vj,vja->va", weights, moved)
 
 
 def _depth(parents, k: int) -> int:
