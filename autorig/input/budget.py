@@ -20,10 +20,15 @@ from dataclasses import dataclass
 
 from ..errors import RigFailedError
 
-# CPU seconds of all the A* searches of one rig (orientation and embedding). On the shared meshes and a sample
-# of the corpus (the quadruped template on bipeds too, whose searches run out) a whole rig takes under 2 s of
-# CPU; orientation and embedding together at most 4.9 s of wall time on a machine at load 8 (the horse).
-SEARCH_SECONDS = 10.0
+# CPU seconds of all the A* searches of one rig (orientation and embedding): a backstop, not the searches' limit.
+# Their limit is their expansion caps (``search.MAX_EXPANSIONS``, ``orient.DECISION_EXPANSIONS``...) and the
+# sphere cap (``limits.MAX_SPHERES``), which count work, not time, so that whether a rig finishes does not depend
+# on the machine's speed or load. A search that runs to its cap takes 2.0-2.9 s of CPU (the shared horse,
+# armadillo, octopus, beast and ogre with a template that does not fit them, 196-734 spheres) and a whole rig's
+# searches at most 3.9 s on an idle machine; on a loaded one CPU time runs two to three times that, and at 10 s
+# a walking wipf with its head low failed or not by the machine (2 and 1 of 186 posed animals in two runs). The
+# hostile soups' searches take under 1 s (the 1,910-sphere one 0.7 s).
+SEARCH_SECONDS = 60.0
 # Partial embeddings the search may hold in its queue at once (~250 bytes each: ~1 GB). Those characters
 # reach at most ~35,000 (a MakeHuman biped with the quadruped template).
 SEARCH_QUEUE = 4_000_000
