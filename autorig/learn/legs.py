@@ -127,6 +127,6 @@ def learn_legs(examples, per_example: np.ndarray, template) -> tuple[dict, dict]
     from ..readoff.head import JOINT as HEAD, learn_head
     head, heads = learn_head(examples, per_example, template)
     if head is not None:
-        rules[HEAD] = {"skull": head}
+        rules[HEAD] = head
     return rules, {"legs_measured": measured, "rumps_measured": rumps, "heads_measured": heads, "legs_total": len(legs_of(template)) * len(examples),
                    "joints": {template.names[k]: len(v) for k, v in sorted(samples.items())}}

@@ -55,7 +55,7 @@ RATIO_RANGE = (0.05, 0.95)   # without the learned "range" (the least and the mo
 ABOVE_PAW = 0.08   # the wrist at least this share of the way from the paw up to the elbow (the examples: 0.09-0.69)
 # The keys of the rules for joints read off the trunk rather than a leg, with their lengths: the rump's (tail
 # base), the skull's (head) and the snout's (the head's rule before the skull's, still read).
-READ_OFF = {"rump": 2, "skull": 4, "snout": 2}
+READ_OFF = {"rump": 2, "skull": 4, "snout": 2, "frame": 5}   # "frame" only beside "skull" (``readoff.head``)
 # Where ``top`` looks: vertical lines through the top ring's centre offset by these fractions of its widths.
 TOP_RAYS = np.array([(dx, dz) for dx in (-0.25, 0.0, 0.25) for dz in (-0.25, 0.0, 0.25)])
 
@@ -324,14 +324,16 @@ def parse_legs(value, names, bad) -> dict | None:
                 and all(isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) < 100 for x in v))
     def rule(r):    # a leg joint's, the tail base's read off the rump (``readoff.rump``) or the head's (``.head``)
         return isinstance(r, dict) and (
-            (len(r) == 1 and set(r) <= set(READ_OFF) and numbers(next(iter(r.values())), READ_OFF[next(iter(r))]))
+            (set(r) <= set(READ_OFF) and (set(r) == {"skull", "frame"} or (len(r) == 1 and "frame" not in r))
+             and all(numbers(v, READ_OFF[k]) for k, v in r.items()))
             or (not set(r) & set(READ_OFF) and ("height" not in r or numbers(r["height"], FEATURES))
                 and ("ratio" not in r or numbers(r["ratio"], FOOT_FEATURES))
                 and ("range" not in r or ("ratio" in r and numbers(r["range"]))) and numbers(r.get("offset"))))
     if not isinstance(value, dict) or not all(k in names and rule(r) for k, r in value.items()):
         raise bad(f'"legs" must map joint names to {{"height": {FEATURES} numbers (optional), "ratio": '
                   f'{FOOT_FEATURES} numbers and "range": [least, most] (optional), "offset": [x, z]}} '
-                  'or {"rump": [k, m]} or {"skull": [c, a, k, m]} or {"snout": [k, m]}')
+                  'or {"rump": [k, m]} or {"skull": [c, a, k, m]} (and "frame": [c, a, k, m, d] or not) '
+                  'or {"snout": [k, m]}')
     return {k: {key: [float(x) for x in r[key]] for key in r} if set(r) & set(READ_OFF) else
             {**({"height": [float(x) for x in r["height"]]} if "height" in r else {}),
              **({key: [float(x) for x in r[key]] for key in ("ratio", "range") if key in r}),
