@@ -9,7 +9,11 @@ moves with the skeleton. The poses:
 - ``walk``: the front left leg 25 deg forward, the front right 20 deg back, the back left 20 deg back, the back
   right 25 deg forward (a walk's diagonal pairs), each turned at its top joint the artist has (the shoulder or
   hip, else the elbow or knee; a foot the artist's rig holds apart, an IK foot, is carried with its leg);
-- ``head low``: the neck turned 40 deg down at its base (as an animal walks or grazes with its head low);
+- ``head low``: the neck turned 40 deg down at its base (as an animal walks or grazes with its head low), or as
+  far as it turns before the head goes below the ground (the feet's level): a short-legged animal's snout
+  reaches the ground first (0 A.D.'s boar at 20 deg, the pig and the rhino at 26, OpenClonk's puka at 15 and
+  mooq at 39; turned the whole 40 the boar's snout went 20 % of its height through the floor, and the lowest
+  part of the shape, where the orientation's cues look for the feet, was its snout alone);
 - ``walk, head low``: both.
 
 A pose names joints of the template map (``quadruped_map``); an animal whose artist has none of a pose's joints
@@ -27,6 +31,8 @@ from poses import posed_skeleton, skinned
 LEG_TOPS = {"front": ("shoulder", "elbow", "wrist"), "back": ("hip", "knee", "ankle")}
 WALK = {"front_left": -25.0, "front_right": 20.0, "back_left": 20.0, "back_right": -25.0}   # + : back
 HEAD_LOW = 40.0   # deg, the neck turned down
+GROUND = 0.005   # of the height: how far below the feet's level the posed mesh may reach (the ground)
+GROUND_STEPS = 10   # halvings of the neck's turn in finding the most the ground allows (40 / 2**10 deg)
 POSES = {
     "walk": {"legs": WALK},
     "head low": {"neck": HEAD_LOW},
@@ -40,7 +46,7 @@ def rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
     return Rotation.from_rotvec(np.radians(degrees) * np.asarray(axis, float)).as_matrix()
 
 
-def turns(example, pose: str) -> dict[int, np.ndarray] | None:
+def turns(example, pose: str, neck: float | None = None) -> dict[int, np.ndarray] | None:
     """{artist joint index: rotation [3, 3] of its frame, world axes} for ``pose``; None when the artist has no
     joint to turn for a part of it. About the left axis (up x front): +degrees takes the front toward down (a
     head lowered) and down toward the back (a leg swung back)."""
@@ -55,17 +61,36 @@ def turns(example, pose: str) -> dict[int, np.ndarray] | None:
             return None
         out[top] = rotation(left, degrees)
     if "neck" in spec:
-        neck = example.key_of.get("neck", example.key_of.get("head"))
-        if neck is None:
+        bone = example.key_of.get("neck", example.key_of.get("head"))
+        if bone is None:
             return None
-        out[neck] = rotation(left, spec["neck"])
+        out[bone] = rotation(left, spec["neck"] if neck is None else neck)
     return out
 
 
 def posed_example(example, pose: str):
     """A copy of ``example`` (``autorig.learn.examples.Example``) in ``pose``, its mesh skinned with its
-    artist's weights and its joints moved with the skeleton; None when the pose cannot be made (``turns``)."""
-    turned = turns(example, pose)
+    artist's weights and its joints moved with the skeleton; None when the pose cannot be made (``turns``). A
+    lowered neck turns as far as the ground lets the head go (``GROUND``)."""
+    made = _posed(example, pose, None)
+    neck = POSES[pose].get("neck")
+    if made is None or neck is None:
+        return made
+    level = _posed(example, pose, 0.0)      # the same pose with the neck not turned: where its feet are
+    if not _below_ground(level, made):
+        return made
+    lo, hi = 0.0, float(neck)
+    for _ in range(GROUND_STEPS):
+        mid = (lo + hi) / 2
+        if _below_ground(level, _posed(example, pose, mid)):
+            hi = mid
+        else:
+            lo = mid
+    return _posed(example, pose, lo)
+
+
+def _posed(example, pose: str, neck: float | None):
+    turned = turns(example, pose, neck)
     if turned is None:
         return None
     rest = np.asarray(example.positions, float)
@@ -73,6 +98,14 @@ def posed_example(example, pose: str):
                                   lambda k, inherited: turned[k] @ inherited if k in turned else inherited)
     vertices = skinned(np.asarray(example.vertices, float), example.weights, world, rest, posed)
     return replace(example, name=f"{example.name} ({pose})", vertices=vertices, positions=posed)
+
+
+def _below_ground(example, posed) -> bool:
+    """Whether ``posed``'s mesh reaches below ``example``'s lowest point (its feet) by more than ``GROUND``
+    (``example``: the same pose with the neck not turned, so that a leg swung under the body sets the ground)."""
+    up = np.array(AXES[example.up], float)
+    rest = np.asarray(example.vertices, float) @ up
+    return float((np.asarray(posed.vertices, float) @ up).min()) < rest.min() - GROUND * float(np.ptp(rest))
 
 
 def _carried(example, turned: dict) -> np.ndarray:

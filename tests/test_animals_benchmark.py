@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -126,3 +127,31 @@ def test_poses_turn_the_artists_bones_and_skin_the_mesh_with_them():
     assert np.allclose(animal_poses.posed_example(ik, "walk").positions, walking.positions)
     del key_of["neck"], key_of["head"]
     assert animal_poses.posed_example(example, "head low") is None
+
+
+def test_a_lowered_head_stops_at_the_ground():
+    """The stick animal's neck turned down until its snout would pass below its paws (the ground): the head
+    low turns it as far as the ground lets it, not through the floor; a long neck high above the ground turns
+    the whole ``HEAD_LOW``."""
+    import animal_poses
+    from autorig.learn.examples import Example
+    names = ["hips", "chest", "neck", "head", "fl", "fl_paw", "fr", "fr_paw", "bl", "bl_paw", "br", "br_paw"]
+    parents = np.array([-1, 0, 1, 2, 1, 4, 1, 6, 0, 8, 0, 10])
+    key_of = {"neck": 2, "head": 3, "front_left_shoulder": 4, "front_left_paw": 5, "front_right_shoulder": 6,
+              "front_right_paw": 7, "back_left_hip": 8, "back_left_paw": 9, "back_right_hip": 10,
+              "back_right_paw": 11}
+
+    def animal(neck_height: float):
+        positions = np.array([(0, 1, -1), (0, 1, 1), (0, neck_height, 1.2), (0, neck_height, 3.2), (0.3, 1, 1),
+                              (0.3, 0, 1), (-0.3, 1, 1), (-0.3, 0, 1), (0.3, 1, -1), (0.3, 0, -1), (-0.3, 1, -1),
+                              (-0.3, 0, -1)], float)
+        vertices = positions[[3, 5, 7, 9, 11]]      # the snout's vertex and the four paws'
+        weights = np.zeros((5, len(names)))
+        weights[[0, 1, 2, 3, 4], [2, 4, 6, 8, 10]] = 1.0
+        return Example("stick", vertices, np.zeros((0, 3), int), "y", "z", names, parents, positions, weights,
+                       key_of)
+    low = animal_poses.posed_example(animal(1.0), "head low")     # 2 long at 1 high: down 30 deg at the ground
+    assert low.vertices[0][1] == pytest.approx(0.0, abs=0.01) and low.positions[3][1] >= -0.005
+    high = animal_poses.posed_example(animal(3.0), "head low")    # 3 high: the whole 40 deg, snout in the air
+    drop = 2.0 * np.sin(np.radians(animal_poses.HEAD_LOW))
+    assert high.positions[3][1] == pytest.approx(3.0 - drop, abs=1e-6)
