@@ -77,7 +77,7 @@ NECK_COLUMN = (1.0, 1.5)      # thicknesses from the snout's height: the column'
                               # below the first, a neck's beyond the second (the joint at the snout's height)
 # The head's own frame (``HeadPath``): the path from the paws' column to the snout keeps to the middle of the
 # mid-plane by costing each step its length over the square of its distance to the outline; it is smoothed over
-# 2 * SMOOTH + 1 cells. The frame rule's tolerance d is this quantile of its own errors on the examples, and
+# 2 * PATH_SMOOTH + 1 cells. The frame rule's tolerance d is this quantile of its own errors on the examples, and
 # the skull rule's head is taken over to the frame rule's over a further RAMP x d.
 PATH_POWER = 2
 PATH_SMOOTH = 3
@@ -235,16 +235,16 @@ def head_path(inside: np.ndarray, x: float, Y: np.ndarray, Z: np.ndarray, should
     ahead = -np.gradient(points[:, 1:], axis=0) if len(points) > 1 else np.array([[0.0, 1.0]])
     ahead /= np.maximum(np.linalg.norm(ahead, axis=1, keepdims=True), 1e-12)
     normals = np.c_[np.zeros(len(points)), ahead[:, 1], -ahead[:, 0]]
-    reach = np.arange(0.0, 1.0, STEP / 2)
+    steps = np.arange(0.0, 1.0, STEP / 2)
 
     def out_to(point, direction) -> float:     # how far the inside goes from point along direction
-        q = point[None, 1:] + reach[:, None] * direction[None, 1:]
+        q = point[None, 1:] + steps[:, None] * direction[None, 1:]
         z, y = np.round((q[:, 1] - Z[0]) / STEP).astype(int), np.round((q[:, 0] - Y[0]) / STEP).astype(int)
         ok = (z >= 0) & (z < nz) & (y >= 0) & (y < ny)
         held = np.zeros(len(q), dtype=bool)
         held[ok] = keep[z[ok], y[ok]]
         out = np.flatnonzero(~held)
-        return float(reach[out[0]] if len(out) else reach[-1])
+        return float(steps[out[0]] if len(out) else steps[-1])
     half = np.array([(out_to(p, m) + out_to(p, -m)) / 2 for p, m in zip(points, normals)])
     arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
     return HeadPath(points, half, normals, arc, float(np.linalg.norm(points[0, 1:] - shoulders[1:])))
