@@ -34,26 +34,25 @@ the shares' quantiles (0.2-0.3 rig alike; 0 leaves the rhino at 16 %, 0.4-0.5 mo
 embedding's own head, kept where its chain reached the snout, was the worse on those animals (the aurochs 14
 against 9 %, the Quaternius bull, cow, deer and horse 10-11 against 9, 9, 6 and 5 %; see docs/tutorials/learn.md).
 The neck, when it no longer sits between the chest and the new head along the back, goes half-way between them.
-A head carried low (an animal grazing, or walking with its head down) is measured wrongly by this rule: its
-vertical columns cut head and neck on the slant (0 A.D.'s wolf with its neck turned 40 degrees down: 0.36 thick
-against 0.19 standing) and the snout comes back toward the paws, and the head went into the neck, up to 28 % of
-the extent from its artist's (mean 16.4 % over the 31 animals, cross-validated by species, the neck turned 40
-degrees down or as far as the ground lets it). The *frame rule*
-reads the head in its own frame instead: ``HeadPath`` is the mid-plane's middle path from the paws' column to
-the snout, which the head carries with it, its width measured across the path; the head goes c' widths (the
-widest within a share a' of the path from the snout) along it, at least a share k' of it, m' half-widths toward
-the back (the same medians and quantiles over the examples, ``learn_frame``). Standing, it is the worse rule (about 6 % mean against 5.1, the mooq's 31 %: a neckless
-head the path does not reach behind), so it does not replace the skull rule: the skull rule's head stays unless
-it lies further along the path from the frame rule's than the frame rule's own tolerance d (the
-``FRAME_QUANTILE`` of its errors on the examples, in the snout's reach from the shoulders, which a turned neck
-keeps), and is taken over to the frame rule's over a further ``FRAME_RAMP`` x d (``in_frame``). With the artists'
-paws, cross-validated by species / by source: standing 5.1 / 5.2 % mean, 13.7 worst (the skull rule alone 5.1 /
-5.0, 13.1 / 13.7), the head lowered 9.3 / 10.4 % mean and 5 / 8 of the 31 beyond 15 % (16.4 / 16.2, 16 / 17).
-Heads lowered the frame rule does not reach: the long-necked deer and giraffe, whose path from the paws' column
-runs up the whole neck when lowered, so that its floor (a share of the path) lands down the neck (15-21 %); the
-hippopotamus, whose chin against its chest makes the path's width run on into the chest (0.69 against 0.15
-standing; capping the width at 3 times the path's clearance: the head lowered 9.3 -> 8.2 % mean by species, 5 ->
-3 beyond 15 %, but the mooq's standing head 11.5 -> 19-20 % in whole rigs: not kept).
+A head carried low (an animal grazing, or walking with its head down) is measured wrongly by this rule: its vertical
+columns cut head and neck on the slant (0 A.D.'s wolf with its neck turned 40 degrees down: 0.36 thick against 0.19
+standing) and the snout comes back toward the paws, and the head went into the neck, up to 28 % of the extent from
+its artist's (mean 16.4 % over the 31 animals, cross-validated by species, the neck turned 40 degrees down or as far
+as the ground lets it). The *frame rule* reads the head in its own frame instead: ``HeadPath`` is the mid-plane's
+middle path from the paws' column to the snout, which the head carries with it, its width measured across the path;
+the head goes c' widths (the widest within a share a' of the path from the snout) along it, at least a share k' of
+it, m' half-widths toward the back (the same medians and quantiles over the examples, ``learn_frame``). Standing, it
+is the worse rule (about 6 % mean against 5.1, the mooq's 31 %: a neckless head the path does not reach behind), so
+it does not replace the skull rule: the skull rule's head stays unless it lies further along the path from the frame
+rule's than the frame rule's own tolerance d (the ``FRAME_QUANTILE`` of its errors on the examples, in the snout's
+reach from the shoulders, which a turned neck keeps), and is taken over to the frame rule's over a further
+``FRAME_RAMP`` x d (``in_frame``). With the artists' paws, cross-validated by species / by source: standing 5.1 /
+5.2 % mean, 13.7 worst (the skull rule alone 5.1 / 5.0, 13.1 / 13.7), the head lowered 9.3 / 10.4 % mean and 5 / 8
+of the 31 beyond 15 % (16.4 / 16.2, 16 / 17). Heads lowered the frame rule does not reach: the long-necked deer and
+giraffe, whose path from the paws' column runs up the whole neck when lowered, so that its floor (a share of the
+path) lands down the neck (15-21 %); the hippopotamus, whose chin against its chest makes the path's width run on
+into the chest (0.69 against 0.15 standing; capping the width at 3 times the path's clearance: the head lowered 9.3
+-> 8.2 % mean by species, 5 -> 3 beyond 15 %, but the mooq's standing head 11.5 -> 19-20 % in whole rigs: not kept).
 The template's ``legs`` carries the rules as ``{"head": {"skull": [c, a, k, m], "frame": [c', a', k', m', d]}}``
 (the frame rule only beside the skull rule; without it, the skull rule alone). The older ``{"head":
 {"snout": [k, m]}}`` (the head a share k of the way back from the snout, unless the head chain ended within
