@@ -2,6 +2,7 @@
 behind the snout's end (or, by the older rule, a share of the way from the snout to the front paws)."""
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -269,10 +270,9 @@ def test_a_lowered_head_is_read_in_its_own_frame(template, name, before):
     ``before`` % of the largest extent from the artist's, in the neck. The head's own frame (the path from the
     paws' column to the snout, which the head carries with it) puts it within 15 %, nearer it than to the front
     paws. (The shipped template learned from these animals standing, not lowered.)"""
-    sys_path = str(Path(__file__).resolve().parents[1] / "benchmarks")
-    import sys
-    if sys_path not in sys.path:
-        sys.path.insert(0, sys_path)
+    benchmarks = str(Path(__file__).resolve().parents[1] / "benchmarks")     # animal_poses, as the benchmark poses
+    if benchmarks not in sys.path:
+        sys.path.insert(0, benchmarks)
     import animal_poses
     from autorig.learn.examples import read_example
     from autorig.learn.proportions import example_positions, skeleton_of_base

@@ -36,23 +36,24 @@ against 9 %, the Quaternius bull, cow, deer and horse 10-11 against 9, 9, 6 and 
 The neck, when it no longer sits between the chest and the new head along the back, goes half-way between them.
 A head carried low (an animal grazing, or walking with its head down) is measured wrongly by this rule: its vertical
 columns cut head and neck on the slant (0 A.D.'s wolf with its neck turned 40 degrees down: 0.36 thick against 0.19
-standing) and the snout comes back toward the paws, and the head went into the neck, up to 28 % of the extent from
-its artist's (mean 16.4 % over the 31 animals, cross-validated by species, the neck turned 40 degrees down or as far
-as the ground lets it). The *frame rule* reads the head in its own frame instead: ``HeadPath`` is the mid-plane's
-middle path from the paws' column to the snout, which the head carries with it, its width measured across the path;
-the head goes c' widths (the widest within a share a' of the path from the snout) along it, at least a share k' of
-it, m' half-widths toward the back (the same medians and quantiles over the examples, ``learn_frame``). Standing, it
-is the worse rule (about 6 % mean against 5.1, the mooq's 31 %: a neckless head the path does not reach behind), so
-it does not replace the skull rule: the skull rule's head stays unless it lies further along the path from the frame
-rule's than the frame rule's own tolerance d (the ``FRAME_QUANTILE`` of its errors on the examples, in the snout's
-reach from the shoulders, which a turned neck keeps), and is taken over to the frame rule's over a further
-``FRAME_RAMP`` x d (``in_frame``). With the artists' paws, cross-validated by species / by source: standing 5.1 /
-5.2 % mean, 13.7 worst (the skull rule alone 5.1 / 5.0, 13.1 / 13.7), the head lowered 9.3 / 10.4 % mean and 5 / 8
-of the 31 beyond 15 % (16.4 / 16.2, 16 / 17). Heads lowered the frame rule does not reach: the long-necked deer and
-giraffe, whose path from the paws' column runs up the whole neck when lowered, so that its floor (a share of the
-path) lands down the neck (15-21 %); the hippopotamus, whose chin against its chest makes the path's width run on
-into the chest (0.69 against 0.15 standing; capping the width at 3 times the path's clearance: the head lowered 9.3
--> 8.2 % mean by species, 5 -> 3 beyond 15 %, but the mooq's standing head 11.5 -> 19-20 % in whole rigs: not kept).
+standing, measured by hand) and the snout comes back toward the paws, and the head went into the neck, up to 28 % of
+the extent from its artist's (mean 16.4 % over the 31 animals, cross-validated by species, the neck turned 40
+degrees down or as far as the ground lets it). The *frame rule* reads the head in its own frame instead:
+``HeadPath`` is the mid-plane's middle path from the paws' column to the snout, which the head carries with it, its
+width measured across the path; the head goes c' widths (the widest within a share a' of the path from the snout)
+along it, at least a share k' of it, m' half-widths toward the back (the same medians and quantiles over the
+examples, ``learn_frame``). Standing, it is the worse rule (about 6 % mean against 5.1 by hand, the mooq's 31 %: a
+neckless head the path does not reach behind), so it does not replace the skull rule: the skull rule's head stays
+unless it lies further along the path from the frame rule's than the frame rule's own tolerance d (the
+``FRAME_QUANTILE`` of its errors on the examples, in the snout's reach from the shoulders, which a turned neck
+keeps), and is taken over to the frame rule's over a further ``FRAME_RAMP`` x d (``in_frame``). ``python
+benchmarks/head_rules.py`` (the artists' paws, by species / by source): standing 5.1 / 5.2 % mean, 13.7 worst (the
+skull rule alone 5.1 / 5.0, 13.1 / 13.7), the head lowered 9.3 / 10.4 % mean and 5 / 8 of the 31 beyond 15 % (16.4 /
+16.2, 16 / 17). Heads lowered the frame rule does not reach: the long-necked deer and giraffe, whose path from the
+paws' column runs up the whole neck when lowered, so that its floor (a share of the path) lands down the neck (15-21
+%); the hippopotamus, whose chin against its chest makes the path's width run on into the chest (by hand 0.69
+against 0.15 standing; capping the width at 3 times the path's clearance: the head lowered 9.3 -> 8.2 % mean by
+species, 5 -> 3 beyond 15 %, but the mooq's standing head 11.5 -> 19-20 % in whole rigs: not kept).
 The template's ``legs`` carries the rules as ``{"head": {"skull": [c, a, k, m], "frame": [c', a', k', m', d]}}``
 (the frame rule only beside the skull rule; without it, the skull rule alone). The older ``{"head":
 {"snout": [k, m]}}`` (the head a share k of the way back from the snout, unless the head chain ended within
@@ -183,6 +184,10 @@ class HeadPath:
     def nearest(self, point: np.ndarray) -> int:
         return int(np.argmin(np.linalg.norm(self.points - point, axis=1)))
 
+    def along(self, point: np.ndarray) -> float:
+        """How far along the path from the snout ``point`` lies (its nearest point's length)."""
+        return float(self.arc[self.nearest(point)])
+
     def place(self, rule: list[float]) -> np.ndarray:
         """Where the frame rule [c, a, k, m, ...] puts the head: c thicknesses (within a share a) along the path
         from the snout, but at least a share k of its length, m half-widths toward the back."""
@@ -305,7 +310,7 @@ def in_frame(skull: np.ndarray, frame: list[float], path: HeadPath) -> np.ndarra
     lie further apart along the path than the frame rule's tolerance d (in reaches): all the way at (1 +
     ``FRAME_RAMP``) d, steadily in between."""
     placed = path.place(frame)
-    apart = abs(path.arc[path.nearest(skull)] - path.arc[path.nearest(placed)]) / max(path.reach, 1e-9)
+    apart = abs(path.along(skull) - path.along(placed)) / max(path.reach, 1e-9)
     w = float(np.clip((apart - frame[4]) / max(FRAME_RAMP * frame[4], 1e-9), 0.0, 1.0))
     return (1.0 - w) * skull + w * placed
 
@@ -319,16 +324,23 @@ def learn_frame(rows: list, joint: int) -> list[float] | None:
         s = float(path.arc[i])
         found.append((path, s, s / max(path.length, 1e-9),
                       float(np.dot(truth[joint] - path.points[i], path.normals[i])) / max(path.half[i], 1e-9)))
-    if len(found) < MIN_EXAMPLES:
+    rule = _medians(found, float(min(r[2] for r in found))) if len(found) >= MIN_EXAMPLES else None
+    if rule is None:
         return None
-    share = float(min(r[2] for r in found))
-    skulls = [s / path.thickness(share) for path, s, _, _ in found if path.thickness(share) > 0]
+    misses = [abs(path.along(path.place(rule)) - s) / max(path.reach, 1e-9) for path, s, _, _ in found]
+    return [round(v, 4) for v in rule + [float(np.quantile(misses, FRAME_QUANTILE))]]
+
+
+def _medians(rows: list, share: float) -> list[float] | None:
+    """[c, a, k, m] over ``rows`` ((measured, how far behind the snout the artist put the head, that as a share
+    of the way, its offset)), ``measured.thickness(share)`` the head's within the window ``share`` (a, the rows'
+    least share; the skull rule's rounded as a template stores it): c the median distance in those thicknesses,
+    k the ``FLOOR`` quantile of the shares, m the median offset; None with fewer than ``MIN_EXAMPLES`` thicknesses."""
+    skulls = [behind / measured.thickness(share) for measured, behind, _, _ in rows if measured.thickness(share) > 0]
     if len(skulls) < MIN_EXAMPLES:
         return None
-    rule = [float(np.median(skulls)), share, float(np.quantile([r[2] for r in found], FLOOR)),
-            float(np.median([r[3] for r in found]))]
-    misses = [abs(path.arc[path.nearest(path.place(rule))] - s) / max(path.reach, 1e-9) for path, s, _, _ in found]
-    return [round(v, 4) for v in rule + [float(np.quantile(misses, FRAME_QUANTILE))]]
+    return [float(np.median(skulls)), share, float(np.quantile([r[2] for r in rows], FLOOR)),
+            float(np.median([r[3] for r in rows]))]
 
 
 def learn_head(examples, per_example: np.ndarray, template) -> tuple[dict | None, int]:
@@ -352,13 +364,9 @@ def learn_head(examples, per_example: np.ndarray, template) -> tuple[dict | None
             rows.append((head, behind, behind / (head.tip - head.paws), (truth[j, 1] - section[0]) / section[1]))
         if head.path is not None:
             paths.append((truth, head.path))
-    if len(rows) < MIN_EXAMPLES:
+    skull = _medians(rows, round(float(min(r[2] for r in rows)), 4)) if len(rows) >= MIN_EXAMPLES else None
+    if skull is None:
         return None, len(rows)
-    share = round(float(min(r[2] for r in rows)), 4)
-    skulls = [behind / head.thickness(share) for head, behind, _, _ in rows if head.thickness(share) > 0]
-    if len(skulls) < MIN_EXAMPLES:
-        return None, len(rows)
-    floor = float(np.quantile([r[2] for r in rows], FLOOR))
-    skull = [round(float(v), 4) for v in (np.median(skulls), share, floor, np.median([r[3] for r in rows]))]
+    skull = [round(v, 4) for v in skull]
     frame = learn_frame(paths, j)
     return {"skull": skull, **({"frame": frame} if frame is not None else {})}, len(rows)
