@@ -14,6 +14,7 @@ A template is a JSON file (see ``templates/biped.json``)::
      "head_bulk": 0.8,                               # optional: weight of the limb ends' bulk cue (autorig.embed.ends)
      "head_share": 1.5,                              # optional: weight of the weight-share cue (autorig.embed.ends)
      "head_crest": 0.5,                              # optional: weight of the crest cue (autorig.embed.orient)
+     "head_toes": 2.0,                               # optional: weight of the feet's cue (autorig.embed.ends)
      "head_gap": 0.0,                                # optional: the most the embedding's front/back difference counts
      "fingers": true,                                # optional: read fingers off the hands (autorig.hands)
      "learned_from": {...}}                          # optional: what ``autorig learn`` made it from
@@ -39,6 +40,8 @@ import numpy as np
 from .errors import TemplateError
 
 AUTO = "auto"   # the template name that asks for a template-free skeleton (autorig.extract)
+# The weights of orientation detection's head/tail cues (``autorig.embed.orient.weighted_cues``)
+CUE_WEIGHTS = ("head_tail", "head_bulk", "head_share", "head_crest", "head_toes")
 
 # The embedding's hand-set penalty weights (Γ), what a template without learned ``penalty_weights`` uses; each
 # penalty is described in ``autorig.embed.penalties``, which weighs them. Set on the project's own mannequins.
@@ -103,6 +106,8 @@ class Template:
     head_bulk  how much the limb ends' bulk cue (``autorig.embed.ends``) weighs beside it, in penalty units
     head_share how much the weight-share cue (``ends.weight_share_cue``) weighs beside them, in penalty units
     head_crest how much the crest cue (``orient.crest_cue``) weighs beside them, in penalty units
+    head_toes  how much the feet's cue (``ends.toes_cue``: which way the toes point) weighs beside them, in
+               penalty units
     head_gap   the most the embedding's penalty difference between two frames that share up and face opposite
                ways counts in detection (``autorig.embed.orient``), in penalty units; None: all of it
     conventions  {name: {"offsets": [J, 3], ...}}: where each source of the examples puts its joints relative
@@ -128,6 +133,7 @@ class Template:
     head_bulk: float = field(default=0.0, compare=False, hash=False)
     head_share: float = field(default=0.0, compare=False, hash=False)
     head_crest: float = field(default=0.0, compare=False, hash=False)
+    head_toes: float = field(default=0.0, compare=False, hash=False)
     head_gap: float | None = field(default=None, compare=False, hash=False)
     conventions: dict | None = field(default=None, compare=False, hash=False)
     default_convention: str | None = field(default=None, compare=False, hash=False)
@@ -185,7 +191,7 @@ class Template:
             if self.placement.get("offset") is not None:
                 data["placement"]["offset"] = [[round(float(v), 4) for v in row]
                                                for row in self.placement["offset"]]
-        for key in ("head_tail", "head_bulk", "head_share", "head_crest"):
+        for key in CUE_WEIGHTS:
             if getattr(self, key):
                 data[key] = round(float(getattr(self, key)), 4)
         if self.head_gap is not None:
@@ -379,7 +385,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         if h["name"] in index or any(h["name"] == other.name for other in helpers):
             raise bad(f"helper {h['name']!r} has the name of another joint")
         helpers.append(Helper(h["name"], index[h["parent"]], offset))
-    cue_weights = {key: data.get(key, 0.0) for key in ("head_tail", "head_bulk", "head_share", "head_crest")}
+    cue_weights = {key: data.get(key, 0.0) for key in CUE_WEIGHTS}
     head_gap = data.get("head_gap")
     for key, value in (*cue_weights.items(), *((("head_gap", head_gap),) if head_gap is not None else ())):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < float("inf"):
@@ -437,6 +443,7 @@ def template_from_dict(data: dict, default_name: str = "custom", source: str = "
         head_bulk=float(cue_weights["head_bulk"]),
         head_share=float(cue_weights["head_share"]),
         head_crest=float(cue_weights["head_crest"]),
+        head_toes=float(cue_weights["head_toes"]),
         head_gap=float(head_gap) if head_gap is not None else None,
         conventions=conventions,
         default_convention=default_convention,

@@ -30,7 +30,8 @@ penalty facing backwards minus facing the right way (both searched as long as de
 frames; negative: the embedding alone turns it round), the outline cue (``orient.head_tail_cue``), the limb
 ends' bulk cue (``ends.end_bulk_cue``), the weight share (``ends.weight_share_cue``: where the medial spheres'
 volume lies between the back and front feet, -1 over the back feet, +1 over the front ones), the crest
-(``orient.crest_cue``: where the top of the shape lies between them), and what the template's weights make of
+(``orient.crest_cue``: where the top of the shape lies between them), the feet (``ends.toes_cue``: how far the
+soles reach forward of the legs), and what the template's weights make of
 them (2 w . cues: the prior's difference between the two frames; the embedding's difference counts at most the
 template's ``head_gap``).
 """
@@ -256,22 +257,22 @@ def explain(families: list[str], per_family: int, seed: int, template_name: str,
     from autorig.template import load_template
     template = load_template(template_name)
     print(f"{'animal':24s} {'back - own':>10s} {'outline':>8s} {'bulk':>6s} {'share':>6s} {'crest':>6s} "
-          f"{'2 w.cues':>8s} {'sum':>7s}")
+          f"{'toes':>6s} {'2 w.cues':>8s} {'sum':>7s}")
     bound = np.inf if template.head_gap is None else template.head_gap
     rows = [(a.name, a.vertices, a.faces) for fam in families for a in family(fam, per_family, seed)]
     if corpus is not None:
         rows += list(_corpus_animals(corpus))
     for name, vertices, faces in rows:
-        gap, outline, bulk, prior, share, crest = ends_explained(vertices, faces, template)
-        print(f"{name:24s} {gap:10.2f} {outline:8.2f} {bulk:6.2f} {share:6.2f} {crest:6.2f} {prior:8.2f} "
+        gap, outline, bulk, prior, share, crest, toes = ends_explained(vertices, faces, template)
+        print(f"{name:24s} {gap:10.2f} {outline:8.2f} {bulk:6.2f} {share:6.2f} {crest:6.2f} {toes:6.2f} {prior:8.2f} "
               f"{float(np.clip(gap, -bound, bound)) + prior:7.2f}", flush=True)
     return 0
 
 
 def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[float, ...]:
     """(embedding penalty facing -z minus facing +z, outline cue, bulk cue, the weighted cues' difference
-    between the two frames, weight share, crest) of a +y up, +z front animal (vertices [V, 3], faces [F, 3])."""
-    from autorig.embed.ends import end_bulk_cue, weight_share_cue
+    between the two frames, weight share, crest, feet) of a +y up, +z front animal (vertices [V, 3], faces [F, 3])."""
+    from autorig.embed.ends import end_bulk_cue, toes_cue, weight_share_cue
     from autorig.input.mesh import prepare
     from autorig.embed.orient import (DECISION_EXPANSIONS, _embedding_cost, _problem, crest_cue, head_tail_cue,
                                       weighted_cues)
@@ -282,10 +283,10 @@ def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[f
     own_cost = _embedding_cost(_problem(graph, template), DECISION_EXPANSIONS)[0]
     back_cost = _embedding_cost(_problem(graph.moved(back.apply(graph.centers), back.scale), template),
                                 DECISION_EXPANSIONS)[0]
-    V = prepared.work_vertices
-    prior = 2 * weighted_cues(template, graph, V)    # the cues negate when the shape is turned round
+    V, F = prepared.work_vertices, prepared.work_faces
+    prior = 2 * weighted_cues(template, graph, V, F)    # the cues negate when the shape is turned round
     return (back_cost - own_cost, head_tail_cue(V), end_bulk_cue(graph, V), prior, weight_share_cue(graph, V),
-            crest_cue(V))
+            crest_cue(V), toes_cue(graph, V, F))
 
 
 def _corpus_animals(train: Path):

@@ -53,7 +53,7 @@ import json, sys
 from pathlib import Path
 from autorig.template import template_json
 target, learned = Path(sys.argv[1]), json.loads(Path(sys.argv[2]).read_text())
-keys = ("head_tail", "head_bulk", "head_share", "head_crest", "head_gap")
+keys = ("head_tail", "head_bulk", "head_share", "head_crest", "head_toes", "head_gap")
 data, old = {}, json.loads(target.read_text())
 for key, value in old.items():    # the learned weights where the old ones were (else before learned_from)
     if key in keys or (key == "learned_from" and not any(k in old for k in keys)):

@@ -139,3 +139,44 @@ def test_a_dachshund_facing_away_is_detected_facing_away(turn, axes):
     assert (rig.info["up"], rig.info["front"]) == axes
     joint = rig.joints[rig.names.index("head")]
     assert np.linalg.norm(joint - turn(head[None])[0]) < np.linalg.norm(joint - turn(rump[None])[0])
+
+
+def test_the_toes_cue_points_the_way_the_feet_do_and_turns_with_them(fox):
+    """The generated fox's paws reach forward of its legs: the feet's cue says +z, turned round it says -z, and
+    neither the units, the place nor the order of the faces changes it."""
+    from autorig.embed.ends import toes_cue
+    vertices, faces, _, _ = fox
+    prepared = prepare(vertices, faces, "y", "z")
+    _, graph = discretize(prepared)
+    V, F = prepared.work_vertices, np.asarray(prepared.work_faces)
+    toes = toes_cue(graph, V, F)
+    assert toes > 0.5
+    moved = graph.moved(graph.centers * 2.0 + [1.0, -3.0, 2.0], 2.0)
+    assert toes_cue(moved, V * 2.0 + [1.0, -3.0, 2.0], F) == pytest.approx(toes)
+    assert toes_cue(graph, V, F[::-1][:, [1, 2, 0]]) == pytest.approx(toes)
+    turned = prepare(vertices, faces, "y", "-z")
+    _, turned_graph = discretize(turned)
+    assert toes_cue(turned_graph, turned.work_vertices, np.asarray(turned.work_faces)) == pytest.approx(-toes, abs=0.05)
+
+
+SHARED = ROOT.parent / "shared"
+
+
+@pytest.mark.skipif(not (SHARED / "data" / "train" / "0ad_wolf").is_dir(), reason="needs ../shared")
+@pytest.mark.parametrize("pose", ["head low", "walk, head low"])
+def test_a_wolf_with_its_head_low_is_rigged_facing_forward(pose):
+    """0 A.D.'s wolf re-posed through its artist's weights with its neck turned down (benchmarks/animal_poses.py),
+    axes detected: the outline, the bulk, the weight and the crest all read its withers and tail as the head
+    (reversed before the feet's cue); its toes still point forward, and its head joint is in its head."""
+    import animal_poses
+    from autorig.learn.examples import read_example
+    from autorig.template import load_template
+    example = read_example(SHARED / "data" / "train" / "0ad_wolf", load_template(ROOT / "templates" / "handset" /
+                                                                                   "quadruped.json"))
+    posed = animal_poses.posed_example(example, pose)
+    rig = autorig.rig((np.asarray(posed.vertices, float), posed.faces), "quadruped")
+    assert (rig.info["up"], rig.info["front"]) == ("y", "z")
+    head = rig.joints[rig.names.index("head")]
+    truth = {k: np.asarray(posed.positions[j], float) for k, j in posed.key_of.items()}
+    assert np.linalg.norm(head - truth["head"]) < min(np.linalg.norm(head - truth[k]) for k in truth
+                                                     if k.startswith("back_") or k.startswith("tail"))

@@ -1,7 +1,8 @@
 """Orientation detection (``autorig.embed.orient``): files in other conventions get the rig the convention gets.
 
-Four-legged animals are told head from tail by the outline's cue, weighed by the template's learned
-``head_tail``; bipeds by the embedding, which the convention's handicap must not outweigh.
+Four-legged animals are told head from tail by the head/tail cues (the outline, the limb ends' bulk, the weight
+share, the crest, the feet), weighed by the template's learned weights; bipeds by the embedding, which the
+convention's handicap must not outweigh.
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import autorig
 from autorig.errors import TemplateError
 from autorig.embed.orient import head_tail_cue
 from autorig.samples import mannequin, quadruped
-from autorig.template import load_template, template_from_dict
+from autorig.template import CUE_WEIGHTS, load_template, template_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAIN = ROOT.parent / "shared" / "data" / "train"
@@ -97,7 +98,7 @@ def test_a_biped_facing_away_is_turned_round():
     assert np.max(np.linalg.norm(away.joints * [-1, 1, -1] - given.joints, axis=1)) < 0.03 * height
 
 
-@pytest.mark.parametrize("key", ["head_tail", "head_bulk", "head_share", "head_crest"])
+@pytest.mark.parametrize("key", ["head_tail", "head_bulk", "head_share", "head_crest", "head_toes"])
 def test_head_tail_in_template_files(key):
     data = json.loads((ROOT / "templates" / "quadruped.json").read_text())
     template = template_from_dict(data)
@@ -129,9 +130,11 @@ def test_head_tail_weight_is_learned_from_animals():
     learned = learn_template(folders, base=load_template(ROOT / "templates" / "handset" / "quadruped.json"),
                              parts=("orientation",))
     record = learned.template.learned_from["head_tail"]
-    assert learned.template.head_tail > 0.2
-    assert learned.template.head_bulk > 0.2 and record["bulk_weight"] == pytest.approx(learned.template.head_bulk,
-                                                                                         abs=1e-3)
+    # The feet's cue, which every one of them reads the right way, weighs most; the record keeps each weight.
+    weights = {key: getattr(learned.template, key) for key in CUE_WEIGHTS}
+    assert max(weights, key=weights.get) == "head_toes" and weights["head_toes"] > 0.2
+    assert record["toes_weight"] == pytest.approx(weights["head_toes"], abs=1e-3)
+    assert record["bulk_weight"] == pytest.approx(weights["head_bulk"], abs=1e-3)
     # Without the cue the embedding alone leaves examples facing the wrong way or nearly so; with it, fewer.
     assert record["unclear_with"] < record["unclear_without"]
 

@@ -266,6 +266,11 @@ class DistanceField:
         """[V, 3] the working mesh's vertices, in this field's frame."""
         return self.surface.vertices
 
+    @property
+    def surface_faces(self) -> np.ndarray:
+        """[F, 3] the working mesh's faces (indices into ``surface_vertices``)."""
+        return self.surface.faces
+
     def spread_vertices(self, count: int) -> np.ndarray:
         """``surface_vertices[spread(surface_vertices, count)]`` (``autorig.input.mesh.spread``), worked out once
         per count: the refinement's and the confidence's mirror-pair weights sample the same points."""
@@ -317,6 +322,10 @@ class MovedField:
         if self._vertices is None:
             self._vertices = self.scale * self.base.surface_vertices @ self.rotation.T + self.offset
         return self._vertices
+
+    @property
+    def surface_faces(self) -> np.ndarray:
+        return self.base.surface_faces
 
     def spread_vertices(self, count: int) -> np.ndarray:
         """As ``DistanceField.spread_vertices``, in this frame."""

@@ -19,9 +19,11 @@ template has legs at both ends, and the embedding facing backwards often costs l
    and a muzzle is carried higher than a tail's end; and the limb ends' bulk (``ends.end_bulk_cue``): a head
    is thick next to its tip, a tail thin, which a cartoon's big head over its front legs and raised tail do
    not hide; where the body's weight lies between the feet (``ends.weight_share_cue``): most animals carry
-   more of it on their front legs; and where the shape's crest lies between the feet (``crest_cue``): a head
-   with its ears or horns is carried highest, a long tail straight back is not. Their weights are the
-   template's ``head_tail``, ``head_bulk``, ``head_share`` and ``head_crest``, learned together by
+   more of it on their front legs; where the shape's crest lies between the feet (``crest_cue``): a head
+   with its ears or horns is carried highest, a long tail straight back is not; and which way the feet point
+   (``ends.toes_cue``): toes and hooves reach forward of the leg, however the head and tail are carried (an
+   animal grazing or walking with its head low turns the others round). Their weights are the template's
+   ``head_tail``, ``head_bulk``, ``head_share``, ``head_crest`` and ``head_toes``, learned together by
    ``autorig learn`` from how far the embedding alone gets front and back wrong on its examples (0: not used).
    They count only against a frame whose opposite (same up, facing the other way) they favour
    (``cue_penalty``): they tell front from back, never up. Between two frames that share up and face opposite ways, the
@@ -45,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..input.mesh import spread
+from ..template import CUE_WEIGHTS
 from .ends import FEET_BAND
 
 AXES = ("x", "y", "z")
@@ -245,16 +248,18 @@ def crest_cue(vertices: np.ndarray) -> float:
     return float(np.clip((top.mean() - (feet.min() + feet.max()) / 2) / half, -1.0, 1.0))
 
 
-def weighted_cues(template, graph, vertices: np.ndarray) -> float:
+def weighted_cues(template, graph, vertices: np.ndarray, faces: np.ndarray | None = None) -> float:
     """The template's head/tail cues of a shape in a candidate frame, weighed (penalty units, positive: its
     head is at +z): the outline's (``head_tail_cue``), the limb ends' bulk (``ends.end_bulk_cue``), the
-    weight share (``ends.weight_share_cue``) and the crest's place (``crest_cue``).
-    graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it."""
-    from .ends import end_bulk_cue, weight_share_cue
+    weight share (``ends.weight_share_cue``), the crest's place (``crest_cue``) and the feet's
+    (``ends.toes_cue``, with ``faces``).
+    graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it, faces [F, 3] its faces."""
+    from .ends import end_bulk_cue, toes_cue, weight_share_cue
     outline = template.head_tail * head_tail_cue(vertices) if template.head_tail else 0.0
     bulk = template.head_bulk * end_bulk_cue(graph, vertices) if template.head_bulk else 0.0
     share = template.head_share * weight_share_cue(graph, vertices) if template.head_share else 0.0
-    return outline + bulk + share + (template.head_crest * crest_cue(vertices) if template.head_crest else 0.0)
+    toes = template.head_toes * toes_cue(graph, vertices, faces) if template.head_toes and faces is not None else 0.0
+    return outline + bulk + share + toes + (template.head_crest * crest_cue(vertices) if template.head_crest else 0.0)
 
 
 def bounded_costs(costs: dict, gap: float | None, floor: dict | None = None) -> dict:
@@ -329,9 +334,8 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
         moved = graph.moved(change.apply(graph.centers), change.scale)
         problems[(u, f)] = _problem(moved, template)
         # the vertices carried into the frame only for a template that weighs a cue (the biped weighs none)
-        cues[(u, f)] = (weighted_cues(template, moved, change.apply(prepared.work_vertices))
-                        if any((template.head_tail, template.head_bulk, template.head_share, template.head_crest))
-                        else 0.0)
+        cues[(u, f)] = (weighted_cues(template, moved, change.apply(prepared.work_vertices), prepared.work_faces)
+                        if any(getattr(template, key) for key in CUE_WEIGHTS) else 0.0)
     prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds = {}

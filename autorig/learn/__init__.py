@@ -92,7 +92,8 @@ def learn_template(paths, base: Template | None = None, name: str | None = None,
         weights, head_tail = learn_head_tail(settings, cues, template)
         template = replace(template, **weights)
         say(f"head/tail cue weights {weights['head_tail']:.2f} (outline), {weights['head_bulk']:.2f} (ends' bulk), "
-            f"{weights['head_share']:.2f} (weight share), {weights['head_crest']:.2f} (crest), front/back embedding difference bounded at "
+            f"{weights['head_share']:.2f} (weight share), {weights['head_crest']:.2f} (crest), "
+            f"{weights['head_toes']:.2f} (toes), front/back embedding difference bounded at "
             f"{weights['head_gap']}: "
             f"examples whose own frame does not win clearly {head_tail.get('unclear_without')} without them, "
             f"{head_tail.get('unclear_with')} with them")

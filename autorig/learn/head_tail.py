@@ -4,10 +4,11 @@ Detection (``autorig.embed.orient``) ranks candidate frames by embedding penalty
 handicap plus what the weighted cues (``orient.weighted_cues``) hold against the frame (``orient.cue_penalty``:
 how much more they favour the frame with the same up facing the other way). The cues are ``head_tail`` times the
 outline's cue (``orient.head_tail_cue``), ``head_bulk`` times the limb ends' bulk (``ends.end_bulk_cue``),
-``head_share`` times the weight share (``ends.weight_share_cue``) and ``head_crest`` times the crest's place
-(``orient.crest_cue``). For a four-legged template the embedding facing backwards often costs less than the right
-one, so front and back are the cues' to tell; for a biped the embedding tells them apart and the cues (meant for
-a head on a neck, on a four-legged body) are noise. The weights are learned from exactly that: for every example,
+``head_share`` times the weight share (``ends.weight_share_cue``), ``head_crest`` times the crest's place
+(``orient.crest_cue``) and ``head_toes`` times the feet's (``ends.toes_cue``). For a four-legged template the
+embedding facing backwards often costs less than the right one, so front and back are the cues' to tell; for a
+biped the embedding tells them apart and the cues (meant for a head on a neck, on a four-legged body) are noise.
+The weights are learned from exactly that: for every example,
 facing backwards (the only frame the cues can help the example's own frame against) must lose by a margin,
 
     (cost(back) - w . cues(back)) - (cost(own) - w . cues(own)) >= MARGIN,
@@ -41,7 +42,7 @@ MARGIN = 1.0       # penalty units a wrong frame must lose by (group cross-valid
                    # animals: at 0.5 one of 64 turned animals came out reversed, at 1.0 none)
 PULL = 0.01        # pull of each weight towards 0, per unit of its square, against the mean squared violation
 MAX_WEIGHT = 5.0   # the cues are in [-1, 1]; beyond this one would outweigh any embedding
-CUES = ("head_tail", "head_bulk", "head_share", "head_crest")   # the template's weights, in the order of the cue columns
+CUES = ("head_tail", "head_bulk", "head_share", "head_crest", "head_toes")   # the weights, in the cue columns' order
 GAPS = (0.0, 0.1, 0.25, 0.5, 1.0, 2.0, None)   # the bounds on the front/back embedding difference tried (None: none)
 
 
@@ -53,7 +54,7 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
     the bound) and with them."""
     from scipy.optimize import minimize
 
-    from ..embed.ends import end_bulk_cue, weight_share_cue
+    from ..embed.ends import end_bulk_cue, toes_cue, weight_share_cue
     from ..embed.orient import DECISION_EXPANSIONS, DETECTION_EXPANSIONS, _embedding_cost, _problem, crest_cue
     # Facing backwards is what detection compares on a long search; the other frames it ranks on a short one.
     costs = np.array([_embedding_cost(_problem(s.graph, template), DECISION_EXPANSIONS if s.frame in ("own", "back")
@@ -61,7 +62,9 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
     values = np.c_[np.asarray(cues, dtype=float),
                    [end_bulk_cue(s.graph, s.field.surface_vertices) for s in settings],
                    [weight_share_cue(s.graph, s.field.surface_vertices) for s in settings],
-                   [crest_cue(s.field.surface_vertices) for s in settings]]   # [N, len(CUES)]
+                   [crest_cue(s.field.surface_vertices) for s in settings],
+                   [toes_cue(s.graph, s.field.surface_vertices, s.field.surface_faces)
+                    for s in settings]]   # [N, len(CUES)]
     own = {s.example: n for n, s in enumerate(settings) if s.true_frame and np.isfinite(costs[n])}
     gaps, cue_gaps, examples, backwards = [], [], [], []
     for n, s in enumerate(settings):
@@ -106,7 +109,8 @@ def learn_head_tail(settings, cues, template) -> tuple[dict[str, float], dict]:
 
     return ({**{key: float(w) for key, w in zip(CUES, weights)}, "head_gap": gap},
             {"weight": round(float(weights[0]), 4), "bulk_weight": round(float(weights[1]), 4),
-             "share_weight": round(float(weights[2]), 4), "crest_weight": round(float(weights[3]), 4), "gap": gap,
+             "share_weight": round(float(weights[2]), 4), "crest_weight": round(float(weights[3]), 4),
+             "toes_weight": round(float(weights[4]), 4), "gap": gap,
              "losses": {str(g): round(loss, 4) for g, (loss, _) in zip(GAPS, fits)},
              "examples": len(own), "unclear_without": unclear(np.zeros(len(CUES)), None),
              "unclear_with": unclear(weights, gap)})
