@@ -48,7 +48,7 @@ import numpy as np
 
 from ..input.mesh import spread
 from ..template import CUE_WEIGHTS
-from .ends import FEET_BAND
+from .ends import FEET_BAND, toes_cue
 
 AXES = ("x", "y", "z")
 SYMMETRY_AMBIGUITY = 1.25  # a second axis this close in mirror error is tried as left-right too
@@ -248,17 +248,20 @@ def crest_cue(vertices: np.ndarray) -> float:
     return float(np.clip((top.mean() - (feet.min() + feet.max()) / 2) / half, -1.0, 1.0))
 
 
-def weighted_cues(template, graph, vertices: np.ndarray, faces: np.ndarray | None = None) -> float:
+def weighted_cues(template, graph, vertices: np.ndarray, faces: np.ndarray | None = None,
+                  toes: float | None = None) -> float:
     """The template's head/tail cues of a shape in a candidate frame, weighed (penalty units, positive: its
     head is at +z): the outline's (``head_tail_cue``), the limb ends' bulk (``ends.end_bulk_cue``), the
     weight share (``ends.weight_share_cue``), the crest's place (``crest_cue``) and the feet's
-    (``ends.toes_cue``, with ``faces``).
+    (``ends.toes_cue``, with ``faces``; ``toes``: its value when known, as in the frame facing the other way).
     graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it, faces [F, 3] its faces."""
     from .ends import end_bulk_cue, toes_cue, weight_share_cue
     outline = template.head_tail * head_tail_cue(vertices) if template.head_tail else 0.0
     bulk = template.head_bulk * end_bulk_cue(graph, vertices) if template.head_bulk else 0.0
     share = template.head_share * weight_share_cue(graph, vertices) if template.head_share else 0.0
-    toes = template.head_toes * toes_cue(graph, vertices, faces) if template.head_toes and faces is not None else 0.0
+    if toes is None and template.head_toes and faces is not None:
+        toes = toes_cue(graph, vertices, faces)
+    toes = template.head_toes * toes if toes is not None else 0.0
     return outline + bulk + share + toes + (template.head_crest * crest_cue(vertices) if template.head_crest else 0.0)
 
 
@@ -328,14 +331,20 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
     candidates = list(dict.fromkeys(c for a in left_axes for c in candidate_frames(up, front, int(a))))
     # Greedy embeddings rank the frames (an upside-down frame costs many times more); the best few are then
     # searched on a short budget, and those that could still win longer (``settle``).
-    problems, cues = {}, {}
+    problems, cues, toes = {}, {}, {}
     for u, f in candidates:
         change = prepared.frame_change(u, f)
         moved = graph.moved(change.apply(graph.centers), change.scale)
         problems[(u, f)] = _problem(moved, template)
         # the vertices carried into the frame only for a template that weighs a cue (the biped weighs none)
-        cues[(u, f)] = (weighted_cues(template, moved, change.apply(prepared.work_vertices), prepared.work_faces)
-                        if any(getattr(template, key) for key in CUE_WEIGHTS) else 0.0)
+        if not any(getattr(template, key) for key in CUE_WEIGHTS):
+            cues[(u, f)] = 0.0
+            continue
+        vertices = change.apply(prepared.work_vertices)
+        if template.head_toes:    # the costliest cue, which turning the shape round negates (to ~1e-15)
+            back = toes.get((u, _flipped(f)))
+            toes[(u, f)] = -back if back is not None else toes_cue(moved, vertices, prepared.work_faces)
+        cues[(u, f)] = weighted_cues(template, moved, vertices, prepared.work_faces, toes.get((u, f)))
     prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds = {}
