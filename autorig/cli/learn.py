@@ -21,9 +21,10 @@ from .common import common_options, exit_codes
 @click.option("--learn", "parts", default="proportions,penalties,placement,confidence", show_default=True,
               metavar="PARTS", help="What to learn (comma-separated, of proportions, penalties, orientation, "
                                     "placement, conventions, legs, confidence); with --template the rest is the "
-                                    "base's. orientation: how much detection weighs the head/tail cue (four-legged "
-                                    "templates); legs: where leg joints sit on the legs the mesh shows (four-legged "
-                                    "templates); conventions: where each source's artists put the joints, "
+                                    "base's. orientation: how much detection weighs the head/tail cues, the feet's "
+                                    "among them (four-legged templates); legs: where leg joints sit on the legs the "
+                                    "mesh shows (four-legged templates); conventions: where each source's artists "
+                                    "put the joints, "
                                     "apart from the shared anatomy (needs placement).")
 @click.option("--convention", "conventions", multiple=True, metavar="NAME=SOURCE[,SOURCE...]",
               help="With --learn conventions: ship the convention NAME, the mean of these sources' own (a "
