@@ -130,7 +130,7 @@ def toes_cue(graph, vertices: np.ndarray, faces: np.ndarray) -> float:
         return 0.0
     # [front left, hind left, front right, hind right]: each side's two feet by z
     feet = np.array([t for side in sides for t in side[np.argsort(-graph.centers[side, 2], kind="stable")]])
-    centre = int(np.argmin(np.asarray(graph.distances).max(axis=1)))
+    centre = int(np.argmin(graph.distances.max(axis=1)))     # as ``prominences``: every tip is reachable from it
     tilt = np.array([_leg_tilt(graph, centre, int(f), height) for f in feet])
     tilt -= (tilt + tilt[[2, 3, 0, 1]]) / 2              # beyond the pair's mean (front with front, hind with hind)
     points = _surface_samples(vertices, faces, height)
