@@ -283,10 +283,10 @@ def ends_explained(vertices: np.ndarray, faces: np.ndarray, template) -> tuple[f
     own_cost = _embedding_cost(_problem(graph, template), DECISION_EXPANSIONS)[0]
     back_cost = _embedding_cost(_problem(graph.moved(back.apply(graph.centers), back.scale), template),
                                 DECISION_EXPANSIONS)[0]
-    V, F = prepared.work_vertices, prepared.work_faces
-    prior = 2 * weighted_cues(template, graph, V, F)    # the cues negate when the shape is turned round
+    V, toes = prepared.work_vertices, toes_cue(graph, prepared.work_vertices, prepared.work_faces)
+    prior = 2 * weighted_cues(template, graph, V, toes)    # the cues negate when the shape is turned round
     return (back_cost - own_cost, head_tail_cue(V), end_bulk_cue(graph, V), prior, weight_share_cue(graph, V),
-            crest_cue(V), toes_cue(graph, V, F))
+            crest_cue(V), toes)
 
 
 def _corpus_animals(train: Path):

@@ -248,21 +248,18 @@ def crest_cue(vertices: np.ndarray) -> float:
     return float(np.clip((top.mean() - (feet.min() + feet.max()) / 2) / half, -1.0, 1.0))
 
 
-def weighted_cues(template, graph, vertices: np.ndarray, faces: np.ndarray | None = None,
-                  toes: float | None = None) -> float:
+def weighted_cues(template, graph, vertices: np.ndarray, toes: float = 0.0) -> float:
     """The template's head/tail cues of a shape in a candidate frame, weighed (penalty units, positive: its
     head is at +z): the outline's (``head_tail_cue``), the limb ends' bulk (``ends.end_bulk_cue``), the
-    weight share (``ends.weight_share_cue``), the crest's place (``crest_cue``) and the feet's
-    (``ends.toes_cue``, with ``faces``; ``toes``: its value when known, as in the frame facing the other way).
-    graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it, faces [F, 3] its faces."""
-    from .ends import end_bulk_cue, toes_cue, weight_share_cue
+    weight share (``ends.weight_share_cue``), the crest's place (``crest_cue``) and the feet's, ``toes``
+    (``ends.toes_cue``, read by the caller: turning the shape round negates it, so one read serves two frames).
+    graph: the sphere graph in that frame; vertices [V, 3] the surface's vertices in it."""
+    from .ends import end_bulk_cue, weight_share_cue
     outline = template.head_tail * head_tail_cue(vertices) if template.head_tail else 0.0
     bulk = template.head_bulk * end_bulk_cue(graph, vertices) if template.head_bulk else 0.0
     share = template.head_share * weight_share_cue(graph, vertices) if template.head_share else 0.0
-    if toes is None and template.head_toes and faces is not None:
-        toes = toes_cue(graph, vertices, faces)
-    toes = template.head_toes * toes if toes is not None else 0.0
-    return outline + bulk + share + toes + (template.head_crest * crest_cue(vertices) if template.head_crest else 0.0)
+    crest = template.head_crest * crest_cue(vertices) if template.head_crest else 0.0
+    return outline + bulk + share + template.head_toes * toes + crest
 
 
 def bounded_costs(costs: dict, gap: float | None, floor: dict | None = None) -> dict:
@@ -344,7 +341,7 @@ def detect_orientation(prepared, field, graph, template, up: str = "auto", front
         if template.head_toes:    # the costliest cue, which turning the shape round negates (to ~1e-15)
             back = toes.get((u, _flipped(f)))
             toes[(u, f)] = -back if back is not None else toes_cue(moved, vertices, prepared.work_faces)
-        cues[(u, f)] = weighted_cues(template, moved, vertices, prepared.work_faces, toes.get((u, f)))
+        cues[(u, f)] = weighted_cues(template, moved, vertices, toes.get((u, f), 0.0))
     prior = {key: _handicap(*key) + cue_penalty(cues, key) for key in candidates}
     costs = {key: _embedding_cost(problem, 0)[0] for key, problem in problems.items()}
     bounds = {}
