@@ -22,6 +22,11 @@ from ..confidence import (BAD_ERROR, FEATURES, GOOD_ERROR, ConfidenceModel, feat
                           posture_free_cost_per_bone, rig_confidence)
 
 L2 = 0.05
+# Transformed units (a part's log, a cost's log1p): the least spread a feature is standardised by. A feature the
+# calibration rigs barely vary would otherwise weigh a rig outside their range many times over: once the sides
+# penalty left no calibration rig with a leg in another leg, every one was symmetric (spread 0.003), and a
+# walking animal's right rig, its legs no mirror images, scored 0.00 (a part of 0.92: 29 spreads out).
+MIN_SCALE = 0.05
 # The way each feature may move the confidence: costs and deviations only lower it, the parts in (0, 1] (1: no
 # sign of trouble) only raise it.
 SIGNS = {"cost_per_bone": -1, "proportions": -1, "limbs": 1, "extra": 1, "inside": 1, "symmetry": 1, "search": 1,
@@ -98,7 +103,7 @@ def fit(rows: list[dict], worst: np.ndarray, bone_log_sigma: np.ndarray) -> Conf
     rows, worst = [r for r, d in zip(rows, decided) if d], worst[decided]
     X = ConfidenceModel.design(rows)
     mean, scale = X.mean(axis=0), X.std(axis=0)
-    scale[scale < 1e-6] = 1.0
+    scale = np.where(scale < 1e-6, 1.0, np.maximum(scale, MIN_SCALE))
     Z = (X - mean) / scale
     y = (np.asarray(worst) <= GOOD_ERROR).astype(float)
     # Both classes weigh the same however many rigs each has (most rigs of a good template are right).
