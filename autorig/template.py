@@ -54,6 +54,7 @@ PENALTY_WEIGHTS = {
     "overlap": 3.0,
     "fat": 1.0,
     "height": 0.0,
+    "sides": 0.5,
 }
 
 

@@ -180,3 +180,41 @@ def test_a_wolf_with_its_head_low_is_rigged_facing_forward(pose):
     truth = {k: np.asarray(posed.positions[j], float) for k, j in posed.key_of.items()}
     assert np.linalg.norm(head - truth["head"]) < min(np.linalg.norm(head - truth[k]) for k in truth
                                                      if k.startswith("back_") or k.startswith("tail"))
+
+
+def test_the_sides_penalty_reads_each_end_against_its_trunk_joint():
+    """A foot's end costs nothing a margin to its own side of its hips or chest, more the nearer it comes to the
+    mid-plane and beyond it; a head's end nothing near the mid-plane, more the farther off it; both read from the
+    parent's x, so that moving the whole body along x changes nothing and its mirror image costs the same."""
+    from autorig.embed.penalties import MID_PLANE, SIDE_MARGIN, SIDE_UNIT, side_penalty
+    x = np.array([-0.2, -0.05, 0.0, 0.01, 0.05, 0.2])
+    left = side_penalty(1, 0.0, x)
+    assert np.all(np.diff(left) <= 0) and left[-1] == 0.0 and left[-2] == 0.0
+    assert left[2] == pytest.approx(SIDE_MARGIN / SIDE_UNIT)
+    assert np.allclose(side_penalty(-1, 0.0, -x), left)
+    head = side_penalty(MID_PLANE, 0.0, x)
+    assert head[2] == head[3] == 0.0 and head[0] == head[-1] > 0
+    for rule in (1, -1, MID_PLANE):
+        assert np.allclose(side_penalty(rule, 0.3, x + 0.3), side_penalty(rule, 0.0, x))
+
+
+@pytest.mark.skipif(not (SHARED / "data" / "train" / "0ad_boar").is_dir(), reason="needs ../shared")
+def test_a_boar_walking_with_its_snout_on_the_ground_has_its_legs_in_its_legs():
+    """0 A.D.'s boar walking with its head low (benchmarks/animal_poses.py: its snout reaches the ground between its
+    front feet), axes given: without the sides penalty both front legs' chains ended on the snout and tusks and
+    the hind legs' in the front feet (every paw 24-58 % of its length from its artist's); each paw and the head
+    is now nearest its own artist's joint."""
+    import animal_poses
+    from animals import Animal, score
+    from autorig.learn.examples import read_example
+    from autorig.template import load_template
+    example = read_example(SHARED / "data" / "train" / "0ad_boar", load_template(ROOT / "templates" / "handset" /
+                                                                                   "quadruped.json"))
+    posed = animal_poses.posed_example(example, "walk, head low")
+    rig = autorig.rig((np.asarray(posed.vertices, float), posed.faces), "quadruped",
+                      autorig.RigOptions(up=example.up, front=example.front))
+    truth = {k: np.asarray(posed.positions[j], float) for k, j in posed.key_of.items()}
+    result = score(dict(zip(rig.names, np.asarray(rig.joints, float))), truth, Animal("boar", "0ad", "boar",
+                                                                                     example).extent)
+    assert {end: e["nearest"] for end, e in result["ends"].items()} == {end: end for end in result["ends"]}
+    assert result["structure"]

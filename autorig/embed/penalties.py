@@ -27,6 +27,10 @@ fat            1.0     1 - radius / largest radius for joints the template calls
 height         0       the root's and branch joints' height against the template's, squared, per 10% of the
                        height: a quadruped's chest sits high in the shoulders, not in the belly's thickest
                        sphere (off in the hand-set weights; ``autorig learn`` weighs it)
+sides          0.5     which side of the body a limb's end lies on, against the joint its chain leaves the trunk
+                       from (its parent: the hips, the chest), per 5% of the height: a foot's end short of 2.5%
+                       of the height to its own side (a lowered snout or a tail on the ground is no foot), a
+                       head's or a tail's end beyond 2.5% of the height to either side (a paw is no head)
 markers        4.0     only with ``--markers`` (``autorig.markers``): a marked joint's sphere's distance from its
                        marker, and a bone's detour from its path to pass the sphere nearest a marked joint
                        of its chain, beyond 5% of the height, per 5%: the limbs the markers are in
@@ -51,6 +55,10 @@ FEET_UNIT = 0.05          # height (fraction of the figure) that costs one unit 
 SHARED_FRACTION = 0.4     # paths may share spheres up to this fraction of the bone's length from its parent
 PROMINENCE = 0.08         # how far (height units) a limb's end must stand out to count as an extremity
 FAT_FRACTION = 0.25       # a fat joint's sphere is at least this fraction of the largest sphere's radius
+SIDE_MARGIN = 0.025       # heights: a foot's end at least this far to its own side, a head's or tail's within it
+SIDE_UNIT = 0.05          # heights beyond the margin that cost one unit of the sides penalty
+MID_PLANE = 2             # ``side_rules``: a limb's end on the template's mid-plane (+1, -1: a foot's side)
+MID_PLANE_X = 1e-6        # template units: a joint this near x = 0 is on the template's mid-plane
 MARKER_WEIGHT = 4.0       # per MARKER_UNIT of a marked joint's distance from its marker (``autorig.markers``)
 MARKER_UNIT = 0.05        # beyond MARKER_FREE: the embedding chooses the limbs, the later stages place the
 MARKER_FREE = 0.05        # joints within them (and put the marked ones at their markers)
@@ -76,6 +84,7 @@ class EmbeddingProblem:
     weights     {penalty: weight} (Γ): the template's learned ones, else ``WEIGHTS``
     fat         [K] bool, the joints the template calls fat
     heights     [K] template height of each reduced joint
+    sides       [K] which side each reduced joint's sphere belongs on (``side_rules``)
     """
     graph: SphereGraph
     reduced: ReducedSkeleton
@@ -90,6 +99,7 @@ class EmbeddingProblem:
     weights: dict
     fat: np.ndarray
     heights: np.ndarray
+    sides: np.ndarray
 
 
 def graph_extremities(graph: SphereGraph, min_prominence: float = PROMINENCE) -> np.ndarray:
@@ -184,6 +194,7 @@ def build_problem(graph: SphereGraph, template: Template, held=None) -> Embeddin
     feet = set(template.feet)
     is_foot = np.array([j in feet for j in reduced.joints])
     feet_cost = weights["feet"] * feet_height(graph)
+    sides = side_rules(template, reduced)
 
     tpos = template.positions[reduced.joints]
     vectors = bone_vectors(template, reduced)
@@ -206,6 +217,8 @@ def build_problem(graph: SphereGraph, template: Template, held=None) -> Embeddin
             cost += feet_cost[cols][None, :]
         if reduced.joints[k] in fat:
             cost += thinness[cols][None, :]
+        if sides[k] and weights["sides"] > 0:
+            cost += weights["sides"] * side_penalty(sides[k], C[rows, 0][:, None], C[cols, 0][None, :])
         if kids[k] and weights["height"] > 0:
             cost += weights["height"] * height_offset(graph, tpos[k, 1])[cols][None, :]
         if held is not None:
@@ -233,7 +246,36 @@ def build_problem(graph: SphereGraph, template: Template, held=None) -> Embeddin
                                    for c in reduced.chains[1:]])
     shared_ok = np.maximum(first_bone, SHARED_FRACTION * reduced.lengths)
     return EmbeddingProblem(graph, reduced, candidates, bone_cost, bone_row, root_cost, mirror, vectors,
-                            is_foot, shared_ok, weights, np.array([j in fat for j in reduced.joints]), tpos[:, 1].copy())
+                            is_foot, shared_ok, weights, np.array([j in fat for j in reduced.joints]), tpos[:, 1].copy(),
+                            sides)
+
+
+def side_rules(template: Template, reduced: ReducedSkeleton) -> np.ndarray:
+    """[K] which side of the body each reduced joint's sphere belongs on, for the sides penalty: +1 or -1 a foot's
+    end on the template's left (+x) or right, ``MID_PLANE`` a limb's end on the template's mid-plane (a head's, a
+    tail's), 0 any (the trunk's joints, a hand's end: hands meet in front of the chest)."""
+    feet = set(template.feet)
+    ends = set(range(len(reduced.joints))) - set(int(p) for p in reduced.parents if p >= 0)
+    out = np.zeros(len(reduced.joints), dtype=np.int64)
+    for k in ends:
+        x = float(template.positions[reduced.joints[k], 0])
+        if abs(x) <= MID_PLANE_X:
+            out[k] = MID_PLANE
+        elif reduced.joints[k] in feet:
+            out[k] = 1 if x > 0 else -1
+    return out
+
+
+def side_penalty(rule: int, parent_x, x):
+    """The unweighted sides penalty of a reduced joint with side ``rule`` (``side_rules``) at ``x`` (an array)
+    whose parent is at ``parent_x`` (broadcast against it): for a foot's end, how far short of ``SIDE_MARGIN``
+    to its side of the parent it lies; for a mid-plane end, how far beyond ``SIDE_MARGIN`` to either side; per
+    ``SIDE_UNIT``. Measured from the parent, not from x = 0: the orientation's frames are not yet centred on the
+    mid-plane, and a limb leaves the trunk where the trunk is."""
+    offset = np.asarray(x) - np.asarray(parent_x)
+    if rule == MID_PLANE:
+        return np.maximum(np.abs(offset) - SIDE_MARGIN, 0.0) / SIDE_UNIT
+    return np.maximum(SIDE_MARGIN - rule * offset, 0.0) / SIDE_UNIT
 
 
 def _marker_cost(held, graph: SphereGraph, chain: list[int], rows: np.ndarray, cols: np.ndarray,
@@ -321,6 +363,8 @@ def embedding_terms(problem: EmbeddingProblem, spheres) -> dict[str, float]:
         terms["length"] += float((np.log(max(D[u, s], 1e-9)) - np.log(reduced.lengths[k])) ** 2)
         if problem.is_foot[k]:
             terms["feet"] += float(feet[s])
+        if problem.sides[k]:
+            terms["sides"] += float(side_penalty(int(problem.sides[k]), C[u, 0], C[s, 0]))
         if problem.fat[k]:
             terms["fat"] += float(thin[s])
         target = np.array([s])
