@@ -182,20 +182,25 @@ def test_a_wolf_with_its_head_low_is_rigged_facing_forward(pose):
                                                      if k.startswith("back_") or k.startswith("tail"))
 
 
-def test_the_sides_penalty_reads_each_end_against_its_trunk_joint():
+def test_the_sides_penalty_reads_each_foot_against_its_trunk_joint():
     """A foot's end costs nothing a margin to its own side of its hips or chest, more the nearer it comes to the
-    mid-plane and beyond it; a head's end nothing near the mid-plane, more the farther off it; both read from the
-    parent's x, so that moving the whole body along x changes nothing and its mirror image costs the same."""
-    from autorig.embed.penalties import MID_PLANE, SIDE_MARGIN, SIDE_UNIT, side_penalty
+    mid-plane and beyond it; read from the parent's x, so that moving the whole body along x changes nothing and
+    its mirror image costs the same. Heads and tails have no side (an animal turns its head)."""
+    from autorig.embed.penalties import SIDE_MARGIN, SIDE_UNIT, side_penalty, side_rules
+    from autorig.template import load_template
     x = np.array([-0.2, -0.05, 0.0, 0.01, 0.05, 0.2])
     left = side_penalty(1, 0.0, x)
     assert np.all(np.diff(left) <= 0) and left[-1] == 0.0 and left[-2] == 0.0
     assert left[2] == pytest.approx(SIDE_MARGIN / SIDE_UNIT)
     assert np.allclose(side_penalty(-1, 0.0, -x), left)
-    head = side_penalty(MID_PLANE, 0.0, x)
-    assert head[2] == head[3] == 0.0 and head[0] == head[-1] > 0
-    for rule in (1, -1, MID_PLANE):
+    for rule in (1, -1):
         assert np.allclose(side_penalty(rule, 0.3, x + 0.3), side_penalty(rule, 0.0, x))
+    quadruped = load_template("quadruped")
+    reduced = quadruped.reduced()
+    rules = dict(zip((quadruped.names[j] for j in reduced.joints), side_rules(quadruped, reduced)))
+    assert rules["front_left_paw_end"] == rules["back_left_paw_end"] == 1
+    assert rules["front_right_paw_end"] == rules["back_right_paw_end"] == -1
+    assert rules["head_end"] == rules["tail_end"] == rules["hips"] == 0
 
 
 @pytest.mark.skipif(not (SHARED / "data" / "train" / "0ad_boar").is_dir(), reason="needs ../shared")

@@ -27,10 +27,9 @@ fat            1.0     1 - radius / largest radius for joints the template calls
 height         0       the root's and branch joints' height against the template's, squared, per 10% of the
                        height: a quadruped's chest sits high in the shoulders, not in the belly's thickest
                        sphere (off in the hand-set weights; ``autorig learn`` weighs it)
-sides          0.5     which side of the body a limb's end lies on, against the joint its chain leaves the trunk
-                       from (its parent: the hips, the chest), per 5% of the height: a foot's end short of 2.5%
-                       of the height to its own side (a lowered snout or a tail on the ground is no foot), a
-                       head's or a tail's end beyond 2.5% of the height to either side (a paw is no head)
+sides          0.5     which side of the body a foot's end lies on, against the joint its chain leaves the trunk
+                       from (its parent: the hips, the chest): how far short of 2.5% of the height to its own
+                       side, per 5% of the height (a lowered snout or a tail on the ground is no foot)
 markers        4.0     only with ``--markers`` (``autorig.markers``): a marked joint's sphere's distance from its
                        marker, and a bone's detour from its path to pass the sphere nearest a marked joint
                        of its chain, beyond 5% of the height, per 5%: the limbs the markers are in
@@ -55,10 +54,9 @@ FEET_UNIT = 0.05          # height (fraction of the figure) that costs one unit 
 SHARED_FRACTION = 0.4     # paths may share spheres up to this fraction of the bone's length from its parent
 PROMINENCE = 0.08         # how far (height units) a limb's end must stand out to count as an extremity
 FAT_FRACTION = 0.25       # a fat joint's sphere is at least this fraction of the largest sphere's radius
-SIDE_MARGIN = 0.025       # heights: a foot's end at least this far to its own side, a head's or tail's within it
-SIDE_UNIT = 0.05          # heights beyond the margin that cost one unit of the sides penalty
-MID_PLANE = 2             # ``side_rules``: a limb's end on the template's mid-plane (+1, -1: a foot's side)
-MID_PLANE_X = 1e-6        # template units: a joint this near x = 0 is on the template's mid-plane
+SIDE_MARGIN = 0.025       # heights: a foot's end at least this far to its own side of its hips or chest
+SIDE_UNIT = 0.05          # heights short of the margin that cost one unit of the sides penalty
+MID_PLANE_X = 1e-6        # template units: a foot this near x = 0 has no side
 MARKER_WEIGHT = 4.0       # per MARKER_UNIT of a marked joint's distance from its marker (``autorig.markers``)
 MARKER_UNIT = 0.05        # beyond MARKER_FREE: the embedding chooses the limbs, the later stages place the
 MARKER_FREE = 0.05        # joints within them (and put the marked ones at their markers)
@@ -252,29 +250,25 @@ def build_problem(graph: SphereGraph, template: Template, held=None) -> Embeddin
 
 def side_rules(template: Template, reduced: ReducedSkeleton) -> np.ndarray:
     """[K] which side of the body each reduced joint's sphere belongs on, for the sides penalty: +1 or -1 a foot's
-    end on the template's left (+x) or right, ``MID_PLANE`` a limb's end on the template's mid-plane (a head's, a
-    tail's), 0 any (the trunk's joints, a hand's end: hands meet in front of the chest)."""
+    end on the template's left (+x) or right, 0 any (the trunk's joints; a hand's end: hands meet in front of the
+    chest; a head's or a tail's: an animal turns its head and swings its tail, the CyberWare horse's head 0.2 of
+    its height to its side, and held to the mid-plane that frame cost more than one lying on its side)."""
     feet = set(template.feet)
     ends = set(range(len(reduced.joints))) - set(int(p) for p in reduced.parents if p >= 0)
     out = np.zeros(len(reduced.joints), dtype=np.int64)
     for k in ends:
         x = float(template.positions[reduced.joints[k], 0])
-        if abs(x) <= MID_PLANE_X:
-            out[k] = MID_PLANE
-        elif reduced.joints[k] in feet:
+        if reduced.joints[k] in feet and abs(x) > MID_PLANE_X:
             out[k] = 1 if x > 0 else -1
     return out
 
 
 def side_penalty(rule: int, parent_x, x):
-    """The unweighted sides penalty of a reduced joint with side ``rule`` (``side_rules``) at ``x`` (an array)
-    whose parent is at ``parent_x`` (broadcast against it): for a foot's end, how far short of ``SIDE_MARGIN``
-    to its side of the parent it lies; for a mid-plane end, how far beyond ``SIDE_MARGIN`` to either side; per
-    ``SIDE_UNIT``. Measured from the parent, not from x = 0: the orientation's frames are not yet centred on the
-    mid-plane, and a limb leaves the trunk where the trunk is."""
+    """The unweighted sides penalty of a foot's end on side ``rule`` (+1, -1: ``side_rules``) at ``x`` (an array)
+    whose parent is at ``parent_x`` (broadcast against it): how far short of ``SIDE_MARGIN`` to its side of the
+    parent it lies, per ``SIDE_UNIT``. Measured from the parent, not from x = 0: the orientation's frames are not
+    yet centred on the mid-plane, and a limb leaves the trunk where the trunk is."""
     offset = np.asarray(x) - np.asarray(parent_x)
-    if rule == MID_PLANE:
-        return np.maximum(np.abs(offset) - SIDE_MARGIN, 0.0) / SIDE_UNIT
     return np.maximum(SIDE_MARGIN - rule * offset, 0.0) / SIDE_UNIT
 
 
