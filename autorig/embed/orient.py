@@ -69,9 +69,9 @@ MID_PLANE_STEPS = 8    # grid steps on each side of the centre, before the searc
 MID_PLANE_SAMPLES = 300  # vertices mirrored (each plane tried costs an exact distance query per vertex)
 MID_PLANE_MIN_SHIFT = 1e-3  # heights: a mid-plane closer to the box's centre moves no joint that matters
 AXIS_PLANE_STEPS = 4      # the same, coarser, for telling the left-right axis (the bounded search still runs:
+AXIS_PLANE_SAMPLES = 200  # the grid alone misses a shield's mid-plane, 5 % of the width off the box's centre)
 THIN = 0.5                # a medial sphere under this share of the widest one's radius is a thin part's
 THIN_ABOVE_WEIGHT = 10.0  # penalty per height the thin parts' middle lies above the bulk's (``thin_above``)
-AXIS_PLANE_SAMPLES = 200  # the grid alone misses a shield's mid-plane, 5 % of the width off the box's centre)
 
 
 @dataclass
