@@ -261,6 +261,24 @@ def test_the_frame_rules_floor_is_a_share_of_the_path_or_of_the_reach_whichever_
         assert path.along(path.place(frame)) == pytest.approx(along, abs=0.011)
 
 
+def test_the_widest_in_a_window_grows_steadily_as_the_window_does():
+    """A head path whose width steps up (the head into the chest) just past where the window ends: the window's
+    widest reads the width at its end between the path's points, so a window a little longer (a path a cell
+    shorter under 1e-6 noise) widens it a little, not by the whole step (0 A.D.'s polar bear with its head low:
+    0.12 -> 0.21, its head 17 % of the extent away)."""
+    from dataclasses import replace as with_
+    from autorig.readoff.head import edge_max
+    path = _straight_path(length=0.5)
+    path = with_(path, half=np.where(path.arc < 0.14, 0.03, 0.05))      # 0.06 wide, 0.10 from 0.14 on
+    ends = np.linspace(0.12, 0.16, 41)                                  # windows ending 0.001 apart
+    widest = np.array([path.thickness(e / path.length) for e in ends])
+    assert widest[0] == pytest.approx(0.06) and widest[-1] == pytest.approx(0.10)
+    assert np.all(np.diff(widest) >= -1e-12)
+    assert np.max(np.diff(widest)) <= 0.04 * 0.001 / 0.01 + 1e-9      # the step spread over the points' 0.01
+    # the widest inside the window wins over a narrower end
+    assert edge_max(np.array([0.0, 0.1, 0.2]), np.array([0.5, 0.2, 0.1]), 0.15) == pytest.approx(0.5)
+
+
 def test_a_level_heads_skull_rule_is_kept(template):
     """The sample dog carries its head level, as the examples carry theirs: the frame rule agrees with the skull
     rule within its tolerance and the head is the skull rule's alone."""
