@@ -22,7 +22,9 @@ Rigs run in this process (no start-up per rig); one character takes 10-30 s with
 
 ``--posed "arms bent,idle"``: instead, every biped example the shipped biped learns from re-posed as
 ``benchmarks/poses.py`` poses it (through its artist's weights; any of ``poses.POSES``), each pose a character
-of its own (``NAME (pose)``), with its axes given.
+of its own (``NAME (pose)``), with its axes given. ``--animal-poses "walk;head low;walk, head low"``: the same
+for the 31 four-legged animals of ``benchmarks/animals.py``, re-posed as ``benchmarks/animal_poses.py`` poses them,
+rigged with the shipped quadruped (``--only`` matches ``NAME (pose)``).
 """
 from __future__ import annotations
 
@@ -168,9 +170,16 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, help="write every row here")
     parser.add_argument("--posed", type=lambda s: [p.strip() for p in s.split(",") if p.strip()],
                         help="comma-separated poses of benchmarks/poses.py: the bipeds re-posed, not at rest")
+    parser.add_argument("--animal-poses", type=lambda s: [p.strip() for p in s.split(";") if p.strip()],
+                        help='semicolon-separated poses of benchmarks/animal_poses.py ("walk;head low;walk, head '
+                             'low"): the four-legged animals of benchmarks/animals.py re-posed, not at rest')
     args = parser.parse_args(argv)
 
     wanted = args.only.split(",") if args.only else None
+    if args.animal_poses:
+        import tempfile
+        with tempfile.TemporaryDirectory() as scratch:
+            return run(args, posed_animals(args.shared, args.corpus, args.animal_poses, wanted, Path(scratch)))
     if args.posed:
         import tempfile
         with tempfile.TemporaryDirectory() as scratch:
@@ -200,6 +209,33 @@ def posed_characters(shared: Path, corpus: Path, poses: list[str], wanted, out: 
             meta = json.loads((posed / "joints.json").read_text())
             found.append((name, posed / "mesh.obj", "biped", meta.get("up_axis", "+y").lstrip("+"),
                           meta.get("front_axis", "+z").lstrip("+")))
+    return found
+
+
+def posed_animals(shared: Path, corpus: Path, poses: list[str], wanted, out: Path) -> list:
+    """(name, obj path, "quadruped", up, front) of every four-legged animal ``benchmarks/animals.py`` rigs,
+    re-posed as ``benchmarks/animal_poses.py`` poses it in each of ``poses`` (through its artist's weights), written
+    under ``out`` as OBJ."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import animal_poses
+    import animals
+    from autorig.template import load_template
+    unknown = [p for p in poses if p not in animal_poses.POSES]
+    if unknown:
+        raise SystemExit(f"unknown animal poses {unknown}: of {'; '.join(animal_poses.POSES)}")
+    found = []
+    for animal in animals.gather(shared, corpus, ROOT / "data" / "maps",
+                                 load_template(animals.HANDSET / "quadruped.json")):
+        for pose in poses:
+            name = f"{animal.name} ({pose})"
+            if wanted is not None and not any(w in name for w in wanted):
+                continue
+            example = animals.posed_animal(animal, pose).example
+            path = out / f"{animal.name}_{pose.replace(' ', '_').replace(',', '')}.obj"
+            vertices, faces = np.asarray(example.vertices, float), np.asarray(example.faces)
+            path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in vertices.tolist())
+                            + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces.tolist()))
+            found.append((name, path, "quadruped", example.up, example.front))
     return found
 
 

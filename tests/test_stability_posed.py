@@ -25,3 +25,24 @@ def test_a_posed_character_rigged_twice_from_the_same_arrays_gets_the_same_rig(t
     assert same["variant"] == "same" and same["move"] == 0.0 and "not bit-identical" not in same["joint"]
     with pytest.raises(SystemExit):
         stability.main(["--posed", "cartwheel"])
+
+
+BEAR = ROOT.parent / "shared" / "data" / "train" / "0ad_bear_polar"
+
+
+@pytest.mark.skipif(not BEAR.exists(), reason="shared data (../shared/data) is not present")
+def test_a_posed_animal_rigged_twice_from_the_same_arrays_gets_the_same_rig(tmp_path):
+    """``--animal-poses``: the four-legged animals re-posed as ``benchmarks/animal_poses.py`` poses them (a pose's
+    own comma inside it), each measured like a character at rest; an unknown pose is an error."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import stability
+    out = tmp_path / "rows.json"
+    name = "0ad_bear_polar (walk, head low)"
+    assert stability.main(["--animal-poses", "walk, head low", "--only", "0ad_bear_polar", "--variants", "same",
+                           "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())
+    assert list(rows) == [name]
+    (same,) = rows[name]
+    assert same["variant"] == "same" and same["move"] == 0.0 and "not bit-identical" not in same["joint"]
+    with pytest.raises(SystemExit):
+        stability.main(["--animal-poses", "cartwheel"])
