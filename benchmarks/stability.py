@@ -24,7 +24,7 @@ Rigs run in this process (no start-up per rig); one character takes 10-30 s with
 ``benchmarks/poses.py`` poses it (through its artist's weights; any of ``poses.POSES``), each pose a character
 of its own (``NAME (pose)``), with its axes given. ``--animal-poses "walk;head low;walk, head low"``: the same
 for the 31 four-legged animals of ``benchmarks/animals.py``, re-posed as ``benchmarks/animal_poses.py`` poses them,
-rigged with the shipped quadruped (``--only`` matches ``NAME (pose)``).
+rigged with the shipped quadruped (``--only`` matches the animal's name).
 """
 from __future__ import annotations
 
@@ -176,14 +176,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     wanted = args.only.split(",") if args.only else None
-    if args.animal_poses:
+    if args.posed or args.animal_poses:
         import tempfile
         with tempfile.TemporaryDirectory() as scratch:
-            return run(args, posed_animals(args.shared, args.corpus, args.animal_poses, wanted, Path(scratch)))
-    if args.posed:
-        import tempfile
-        with tempfile.TemporaryDirectory() as scratch:
-            return run(args, posed_characters(args.shared, args.corpus, args.posed, wanted, Path(scratch)))
+            return run(args, posed_animals(args.shared, args.corpus, args.animal_poses, wanted, Path(scratch))
+                       if args.animal_poses else
+                       posed_characters(args.shared, args.corpus, args.posed, wanted, Path(scratch)))
     found = [c for c in characters(args.shared, args.corpus)
              if (wanted is None or any(w in c[0] for w in wanted))
              and not (args.skip_corpus and not any(str(c[1]).startswith(str(args.shared / "data" / d))
@@ -232,6 +230,8 @@ def posed_animals(shared: Path, corpus: Path, poses: list[str], wanted, out: Pat
                 continue
             example = animals.posed_animal(animal, pose).example
             path = out / f"{animal.name}_{pose.replace(' ', '_').replace(',', '')}.obj"
+            # written by hand, each float's repr: read back, the mesh is the one posed to the bit (trimesh's
+            # export rounds it, and a rounded copy would be one more noise variant)
             vertices, faces = np.asarray(example.vertices, float), np.asarray(example.faces)
             path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in vertices.tolist())
                             + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in faces.tolist()))
