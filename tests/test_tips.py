@@ -298,3 +298,21 @@ def test_a_hands_tip_read_at_another_limbs_end_is_not_taken():
     # mid-plane end is not counted (``_beyond_start`` takes no tip up behind the arm's start)
     assert not _at_other_end(np.array([0.13, 0.50, 0.02]), path_end, hand, ends, mirror)    # its own fingers
     assert not _at_other_end(np.array([-0.09, 0.55, 0.0]), path_end, hand, ends, mirror)    # the other hand's
+
+
+def test_a_head_tip_read_from_the_mid_plane_between_two_horns_is_the_pairs_middle():
+    """A head with two horns (a mirrored pair of tops) whose path ends on the mid-plane: the surface nearest the
+    path's end, and the climb from it, take either horn as the floats fall, and so did the climb from its mirror
+    image (the same point), so both reached one horn and the head's tip was that horn's, not the pair's middle
+    (0 A.D.'s aurochs walking with its head low: 20 % of the height apart under 1e-6 noise). The second climb
+    starts at the mirror image of the first's end: the pair's middle, from either side of the plane."""
+    from autorig.readoff.tips import _tops
+
+    n = 41
+    x, y, vertices, index, surface = _sheet(n)
+    horn = lambda cx: 1.0 - ((x - cx) ** 2 + (y - 0.8) ** 2)     # noqa: E731
+    reach = np.maximum(horn(-0.25), horn(0.25)).ravel()
+    surface.reach, surface.top = reach, _tops(surface.graph, reach)
+    for side in (-1e-7, 0.0, 1e-7):
+        tip = surface.tip(np.array([side, 0.5, 0.0]), midline=True)
+        assert abs(tip[0]) < 1e-9 and tip[1] > 0.7, (side, tip)

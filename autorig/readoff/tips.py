@@ -98,8 +98,8 @@ class Surface:
     def tip(self, start: np.ndarray, cap: float = CAP, midline: bool = False) -> np.ndarray | None:
         """[3] the tip of the limb whose end lies nearest the point ``start`` [3]. midline: the tip of a part
         on the body's mid-plane (x = 0: a head, a tail), whose end may be a mirrored pair (two ears, two
-        horns): the mean of the tips reached from ``start`` and from its mirror image when they are such a
-        pair, so that which of the two the climb reaches does not matter. A paired limb's end (not
+        horns): the mean of the tips reached from ``start`` and from the mirror image of that tip when
+        they are such a pair, so that which of the two the climb reaches does not matter. A paired limb's end (not
         ``midline``) is not climbed on a held stick (the module's last paragraph), and its cap is read around the
         highest top within ``FINGERS`` of the one its climb reached; None when its cap holds a higher top farther
         than ``HAND``: a hand pressed into the hip, the surface nearest its path's end the hip's, climbed to a bump
@@ -109,7 +109,11 @@ class Surface:
         if not midline:
             return self._tip(start, cap, unheld=True, highest=FINGERS)
         tip = self._tip(start, cap, highest=np.inf)
-        other = self._tip(start * MIRROR, cap, highest=np.inf)
+        # The other climb starts at the mirror image of the end the first reached, not of ``start``: a start on
+        # the mid-plane is its own mirror image, and the surface nearest it either twin of a mirror pair as the
+        # floats fell, so both climbs could reach the same horn, and the head's tip was that horn's instead of
+        # the pair's middle (0 A.D.'s aurochs walking with its head low: 20 % of the height under 1e-6 noise).
+        other = self._tip(tip * MIRROR, cap, highest=np.inf)
         # A mirrored pair when each is the other's mirror image: the other climb did not run off to another
         # part (a rhino's tail end is no mirror image of its horn).
         if np.linalg.norm(other * MIRROR - tip) <= PAIR:
