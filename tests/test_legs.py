@@ -266,3 +266,25 @@ def test_a_wrist_read_off_the_foot_stays_between_its_paw_and_its_elbow(name, fro
     for side in ("left", "right"):
         paw, wrist, elbow = (rig.joint(f"front_{side}_{j}")[1] for j in ("paw", "wrist", "elbow"))
         assert paw < wrist < elbow
+
+
+def test_a_straight_legs_bend_does_not_jump_when_its_rings_move_by_a_millionth():
+    """The bend is where the leg's rings lie farthest aft of its chord; on a straight leg (a hind leg lifted off
+    the ground in a walk) every ring is aft by a rounding error, and the level of the farthest jumped as the
+    floats fell (0 A.D.'s fox walking with its head low: the bend 0.065 or 0.085, its knee 1.6 % of the height
+    apart). Rings aft by nearly the same share it; a leg that bends keeps its bend at its own ring."""
+    from autorig.readoff.legs import Leg
+
+    levels = np.round(np.arange(0.005, 0.6, 0.01), 3)
+    straight = np.column_stack([np.zeros_like(levels), 0.1 + 0.05 * levels])
+
+    def leg(centres):
+        return Leg(chain=[0, 1, 2, 3], side=1.0, levels=levels, centres=centres,
+                   widths=np.full((len(levels), 2), 0.05), free=float(levels[-1]), top=0.9)
+
+    rng = np.random.default_rng(0)
+    bends = [bend(leg(straight + rng.uniform(-1e-6, 1e-6, straight.shape))) for _ in range(5)]
+    assert np.ptp(bends) < 0.005, bends
+    hock = straight.copy()
+    hock[:, 1] -= 0.04 * np.exp(-((levels - 0.245) / 0.05) ** 2)    # the leg's path farthest aft at 0.245
+    assert abs(bend(leg(hock)) - 0.245) < 0.005

@@ -39,6 +39,7 @@ LEVELS = np.linspace(0.005, 0.995, 100)
 # leg has no ring at that level.
 NEAR = 0.08
 BEND_FROM = 0.15
+BEND_SOFT = 1e-4   # heights: rings this much less far aft than the farthest weigh 1/e in the bend (``bend``)
 # The joints whose place along the body is each species' artists' habit rather than anatomy (issue 26's
 # convention-free score: ``benchmarks/quadruped_score.py``): a rig is not wrong for putting them elsewhere on
 # the body's line, so the confidence of a template with legs is calibrated on the other joints.
@@ -241,13 +242,25 @@ def _leg(chain, side, rows, vertices, faces) -> Leg | None:
 
 def bend(leg: Leg) -> float:
     """The height where the leg's medial path bends back most: its centre farthest aft of the straight line
-    between its rings at ``BEND_FROM`` of ``free`` and at ``free`` (a hock points back; a knee forward)."""
+    between its rings at ``BEND_FROM`` of ``free`` and at ``free`` (a hock points back; a knee forward), shared
+    among the rings within ``BEND_SOFT`` as far aft."""
     keep = (leg.levels >= BEND_FROM * leg.free) & (leg.levels <= leg.free + 1e-9)
     if keep.sum() < 3:
         return BEND_FROM * leg.free
     y, z = leg.levels[keep], leg.centres[keep, 1]
     chord = z[0] + (z[-1] - z[0]) * (y - y[0]) / max(y[-1] - y[0], 1e-9)
-    return float(y[int(np.argmin(z - chord))])
+    aft = z - chord
+    # Not the level of the least: the levels weighed by how near the least each lies (within ``BEND_SOFT``), so
+    # that rings aft by nearly the same share the bend instead of one taking it as the floats fall (0 A.D.'s
+    # fox walking with its head low: a straight hind leg lifted off the ground, its rings aft by 1e-6 or less,
+    # the bend 0.065 or 0.085 and the knee 1.6 % of the height apart under 1e-6 noise). The least of the levels
+    # had also taken the lowest of rings exactly as far aft, as a straight edge of a low-poly leg cuts them:
+    # with the ties shared, the hock's height fits the examples better (a least-squares fit with one animal
+    # left out at a time: 5.9 -> 4.2 % of the height mean, the knee's 4.4 -> 4.2). With 1e-5 a straight leg of
+    # 60 rings still moved its bend 1 % of the height under the noise; 1e-3 blends in rings a tenth of a
+    # percent less far aft (held-out bears walking: a hock 13.6 -> 17.1 % off).
+    weight = np.exp(-(aft - aft.min()) / BEND_SOFT)
+    return float(weight @ y / weight.sum())
 
 
 def joint_features(leg: Leg) -> np.ndarray:
