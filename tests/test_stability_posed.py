@@ -48,10 +48,10 @@ def test_a_posed_animal_rigged_twice_from_the_same_arrays_gets_the_same_rig(tmp_
         stability.main(["--animal-poses", "cartwheel"])
 
 
-AUROCHS = ROOT.parent / "shared" / "data" / "train" / "0ad_aurochs"
+MOVED = [ROOT.parent / "shared" / "data" / "train" / name for name in ("0ad_aurochs", "0ad_fox")]
 
 
-@pytest.mark.skipif(not (AUROCHS.exists() and BEAR.exists()), reason="shared data (../shared/data) is not present")
+@pytest.mark.skipif(not all(p.exists() for p in MOVED), reason="shared data (../shared/data) is not present")
 @pytest.mark.parametrize("animal, pose, seeds", [
     ("0ad_aurochs", "walk", 1),             # its mid-plane: one dip of the mirror error or another (0.59 %)
     ("0ad_aurochs", "walk, head low", 2),   # its head's end: one horn's tip, not the pair's middle (1.80 %)
