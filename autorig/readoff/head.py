@@ -49,12 +49,12 @@ unless it lies further along the path from the frame rule's than the frame rule'
 ``FRAME_QUANTILE`` of its errors on the examples, in the snout's reach from the shoulders, which a turned neck
 keeps), and is taken over to the frame rule's over a further ``FRAME_RAMP`` x d (``in_frame``). ``python
 benchmarks/head_rules.py`` (the artists' paws, by species / by source): standing 5.1 / 5.2 % mean, 13.1 / 15.2
-worst (the mooq by source; the skull rule alone 5.1 / 5.0, 13.1 / 13.7), the head lowered 8.4 / 9.7 % mean and 3 /
-6 of the 31 beyond 15 % (16.4 / 16.2, 16 / 17). The floor was a share of the path's length: the long-necked deer and giraffe, whose
-path from the paws' column runs up the whole neck when lowered, had the head down the neck (15-21 %; a share of
-the reach alone put the Quaternius dogs' lowered heads, whose short paths reach far, 9-16 % off; k learned as a
-share of the span, not of the length, moved the mooq's standing head 13.7 -> 15.1 % by source); with it the
-lowered head was 9.3 / 10.4 % mean, 5 / 8 beyond 15. Heads
+worst (the mooq by source; the skull rule alone 5.1 / 5.0, 13.1 / 13.7), the head lowered 8.4 / 9.7 % mean and 3 / 6
+of the 31 beyond 15 % (16.4 / 16.2, 16 / 17). The floor was a share of the path's length: the long-necked deer and
+giraffe, whose path from the paws' column runs up the whole neck when lowered, had the head down the neck (15-21 %;
+a share of the reach alone put the Quaternius dogs' lowered heads, whose short paths reach far, 9-16 % off; k
+learned as a share of the span, not of the length, moved the mooq's standing head 13.7 -> 15.1 % by source); with it
+the lowered head was 9.3 / 10.4 % mean, 5 / 8 beyond 15. Heads
 lowered the frame rule does not reach: the hippopotamus, whose chin against its chest makes the path's width run
 on into the chest (by hand 0.69 against 0.15 standing; capping the width at 3 times the path's clearance: the head
 lowered 9.3 -> 8.2 % mean by species, 5 -> 3 beyond 15 %, but the mooq's standing head 11.5 -> 19-20 % in whole
@@ -165,9 +165,9 @@ def edge_max(s: np.ndarray, values: np.ndarray, end: float) -> float:
     itself read linearly between its two neighbours: a window's widest grows steadily as the window does, not by a
     whole step when its end passes a point (0 A.D.'s polar bear with its head low, its head path 0.004 shorter
     under 1e-6 noise: one more point in the window, the widest 0.12 -> 0.21, the head 17 % of the extent away;
-    8.4 % with this and the rule relearned). The frame rule's window only: the skull rule's read the same way rigged the four poses of
-    ``benchmarks/animals.py`` alike but for the sheep's lowered head (right since) and the aurochs's standing one
-    (10.4 -> 12.3 % by source), and is left as it was."""
+    8.4 % with this and the rule relearned). The frame rule's window only: the skull rule's read the same way rigged
+    the four poses of ``benchmarks/animals.py`` alike but for the sheep's lowered head (right since) and the
+    aurochs's standing one (10.4 -> 12.3 % by source), and is left as it was."""
     inside = values[(s <= end) & (s >= 0)]
     edge = float(np.interp(end, s, values)) if len(s) and s[0] <= end else 0.0
     return float(max(inside.max(initial=0.0), edge))

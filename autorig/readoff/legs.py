@@ -254,12 +254,12 @@ def bend(leg: Leg) -> float:
     # that rings aft by nearly the same share the bend instead of one taking it as the floats fall (0 A.D.'s
     # fox walking with its head low: a straight hind leg lifted off the ground, its rings aft by 1e-6 or less,
     # the bend 0.065 or 0.085 and the knee 1.6 % of the height apart under 1e-6 noise). The least of the levels
-    # had also taken the lowest of rings exactly as far aft, as a straight edge of a low-poly leg cuts them:
-    # with the ties shared, the hock's height fits the examples better (a least-squares fit with one animal
-    # left out at a time: 5.9 -> 3.9 % of the height mean, the knee's 4.4 -> 3.6). 1e-4 fitted them worse
-    # (4.2, 4.2); cross-validated (``benchmarks/animals.py``) its rigs were 0.03-0.05 % better on the mean but
-    # held-out bears' swung hind hocks 18.8 % off against 17.4; 1e-5 still moved a straight leg of 60 rings'
-    # bend 1 % of the height under the noise; 1e-2 fitted worse.
+    # had also taken the lowest of rings exactly as far aft, as a straight edge of a low-poly leg cuts them;
+    # with the ties shared (the hock and knee rules relearned) held-out animals' right rigs came out 0.04-0.05 %
+    # of the height nearer on the mean in each pose (``benchmarks/animals.py --cv species,source``; at rest
+    # 3.50 -> 3.46), held-out bears' swung hind hocks farther (12.7 -> 17.4 % walking). 1e-4: means 0.03-0.05
+    # lower again, those hocks 18.8; 1e-5 still moves a straight leg of 60 rings' bend 1 % of the height under
+    # the noise (``tests/test_legs.py``).
     weight = np.exp(-(aft - aft.min()) / BEND_SOFT)
     return float(weight @ y / weight.sum())
 
