@@ -1,11 +1,13 @@
-"""The sphere graph's contacts between separate pieces of the mesh (``autorig.discretize.graph._piece_contacts``):
-an edge that joins a piece where nothing joins it yet is kept, so is one whose spheres are joined nearby
-anyway, and one that closes a loop through the body is cut."""
+"""The sphere graph's contacts (``autorig.discretize.contacts``): between separate pieces of the mesh
+(``_piece_contacts``) an edge that joins a piece where nothing joins it yet is kept, so is one whose spheres
+are joined nearby anyway, and one that closes a loop through the body is cut; the landmarks' bound on the
+distance over the surface (``_pressed_contacts``); and the graph's bridges between pieces the packing left
+apart."""
 from __future__ import annotations
 
 import numpy as np
 
-from autorig.discretize.graph import LOOP, _piece_contacts
+from autorig.discretize.contacts import LOOP, _piece_contacts
 
 CHAINS = [(1, 2), (2, 3), (3, 4), (4, 5), (6, 7), (7, 8), (8, 9), (9, 10), (0, 11)]
 BETWEEN = [(0, 1), (0, 6), (1, 11), (5, 10)]     # shoulders, a seam beside the left one, the hands
@@ -121,3 +123,50 @@ def test_a_limb_on_a_piece_of_its_own_is_not_bridged_to_the_body():
         c[5:, 0] = low[0] + 0.15 + apart
         edges = {tuple(e) for e in _bridge_pieces(field, c, r, pairs).tolist()}
         assert not any((a <= 4) != (b <= 4) for a, b in edges), (apart, edges)
+
+
+def _u_sheet(step: float = 0.02):
+    """A flat sheet in the shape of a U, one unit tall and 0.5 wide, its two arms 0.1 wide and 0.3 apart at the
+    top: (vertices [V, 3], faces [F, 3]) on a grid of ``step``."""
+    n, m = int(round(0.5 / step)), int(round(1.0 / step))
+    notch = [(x, y) for x in range(n) for y in range(m) if 0.1 <= (x + 0.5) * step <= 0.4 and (y + 0.5) * step > 0.2]
+    cells = [(x, y) for x in range(n) for y in range(m) if (x, y) not in set(notch)]
+    index, vertices, faces = {}, [], []
+
+    def corner(x, y):
+        if (x, y) not in index:
+            index[(x, y)] = len(vertices)
+            vertices.append((x * step, y * step, 0.0))
+        return index[(x, y)]
+
+    for x, y in cells:
+        a, b, c, d = corner(x, y), corner(x + 1, y), corner(x + 1, y + 1), corner(x, y + 1)
+        faces += [(a, b, c), (a, c, d)]
+    return np.array(vertices), np.array(faces)
+
+
+def test_landmarks_bound_the_distance_over_the_surface_and_tell_the_arms_of_a_u_apart():
+    """``_pressed_contacts``' bound: |d(L, a) - d(L, b)| over its landmarks L never exceeds the distance between a
+    and b over the surface, and for the tops of a U's two arms, 0.3 apart in space, it is the way round the U's
+    bottom (1.6 over the sheet) within a few steps, since the landmarks lie at the arms' ends."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    from autorig.discretize.contacts import _landmark_distances
+    from autorig.input.facing import mesh_edges
+
+    vertices, faces = _u_sheet()
+    edges = mesh_edges(len(vertices), faces)
+    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    both = coo_matrix((np.r_[length, length], (np.r_[edges[:, 0], edges[:, 1]], np.r_[edges[:, 1], edges[:, 0]])),
+                      shape=(len(vertices),) * 2).tocsr()
+    reach = _landmark_distances(both, vertices, np.arange(len(vertices)))
+    exact = dijkstra(both, directed=True, indices=np.arange(0, len(vertices), 7))
+    rows = np.arange(0, len(vertices), 7)
+    bound = np.abs(reach[:, rows, None] - reach[:, None, :]).max(axis=0)
+    assert np.all(bound <= exact + 1e-9)
+    left = int(np.argmin(np.linalg.norm(vertices - (0.05, 1.0, 0.0), axis=1)))
+    right = int(np.argmin(np.linalg.norm(vertices - (0.45, 1.0, 0.0), axis=1)))
+    apart = float(np.abs(reach[:, left] - reach[:, right]).max())
+    round_the_bottom = float(dijkstra(both, directed=True, indices=left)[right])
+    assert round_the_bottom > 1.5 and apart > 0.9 * round_the_bottom

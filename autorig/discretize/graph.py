@@ -2,39 +2,8 @@
 
 Two packed spheres are joined when they overlap and the straight segment between their centres stays inside
 the mesh, so graph paths are paths through the body's interior. Shortest-path lengths between all pairs of
-spheres are what the embedding measures bones with.
-
-Where two parts of the body touch (hands meeting in front of the chest, an arm resting on a thigh), the inside
-runs from one into the other, and so would the graph: two hands that meet became one limb end, and the second
-hand's chain went to the top of the head (posed corpus bipeds with their arms bent: wrists 15-20 % of the
-height off). A contact shows in the mesh itself: the segment between the two spheres passes close to the
-surface (its least depth under ``PINCH`` of the smaller radius, where a limb's own segments stay about a
-radius deep), and the surface points nearest the two spheres, on one connected piece of the mesh, are far
-apart over the surface (more than ``CONTACT_RATIO`` times the spheres' span, the centres' distance plus both
-radii) though near in space. Such edges are cut (``_contacts``). The surface distance is measured along the
-mesh's edges (Dijkstra, bounded at the span's multiple): a limb's own pinch (a wrist, a thin waist) keeps its
-edges, since around it the surface is as short as through it.
-
-Where one part presses into the other (a hand pressed into a hip, the hands on the thighs of a seated figure,
-two hands round a weapon's shaft), the surfaces interpenetrate: spheres inside both parts take the hand's
-surface as their nearest, segments there stay deep, and a few unpinched edges (some to the trunk's widest
-spheres, whose spans exceed ``CONTACT_SPAN``) carried the hand's chain into the hip. So around each contact
-found, the edges between spheres next to a cut edge are checked again without the pinch (a least depth under
-``NEAR_PINCH`` of the smaller radius) up to ``NEAR_SPAN``, their limit widened by the way from each nearest
-point to the vertex it is measured from (a low-poly box figure's corners lie far from its nearest points). Of
-those whose surfaces are as far apart, only the ones that close a loop longer than ``LOOP`` through the body
-are cut, as between pieces (``_piece_contacts``): a raised arm whose box interpenetrates the torso's at the
-shoulder keeps its attachment, since without those edges nothing else joins it.
-
-Between separate pieces of the mesh (a sword in a hand, a separate head, a game character's forearm-and-hand
-pieces) every junction is pinched and the surface cannot tell anything: there the graph itself does
-(``_piece_contacts``). The pinched edges between pieces are taken in the order of their distance from the
-body's middle (along the graph, from its widest sphere), each kept when it joins what is not yet joined (a
-piece's attachment: a head on its neck, an arm at its shoulder, a sword in its fist) or what is joined within
-``LOOP`` of the height anyway (the seams around that attachment: 0.12-0.27 on 0 A.D.'s bipeds), and cut when
-it would close a longer loop: two hands that meet in front of the chest, each on its own arm's piece, are
-joined already through both arms and the shoulders (0.8-0.9 of the height on 0 A.D.'s Iberian spearman), and
-with the edge kept the two hands made one limb end and both arm chains went to the corners of the tunic.
+spheres are what the embedding measures bones with. Where two parts of the body only touch, the edges between
+them are cut (``autorig.discretize.contacts``).
 """
 from __future__ import annotations
 
@@ -43,16 +12,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..input.facing import unique_ints
+from .contacts import CONTACT_RATIO, _contacts, _nearest_corners, _surface_far, _surface_pieces
 from .distance import DistanceField
 from .medial import Spheres
 LIMB_PIECE = 0.1   # a piece whose spheres' box is this far across (heights) may hold a limb: bridged to the body
 TIE = 1e-9   # gaps this close (of the largest radius) are equal: ``_bridge_pieces`` bridges them all
-PINCH = 0.5          # a segment whose least depth is under this fraction of the smaller radius may cross a contact
-CONTACT_RATIO = 3.0  # surface distance over the spheres' span beyond which a pinched edge is a contact
-CONTACT_SPAN = 0.12  # heights: spans above this are not checked (bounds the Dijkstra; limbs touch at smaller ones)
-NEAR_PINCH = 1.0     # next to a cut edge, a segment less deep than the smaller radius may cross the same contact
-NEAR_SPAN = 0.3      # heights: ... up to this span (the widest trunk spheres' edges to a limb: 0.16-0.17)
-LOOP = 0.4           # heights: a pinched edge between two pieces closing a longer loop is a contact
 
 
 
@@ -217,150 +181,6 @@ def sphere_graph(field: DistanceField, spheres: Spheres) -> SphereGraph:
                        distances=distances, predecessors=predecessors)
 
 
-def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndarray,
-              samples: int = 9) -> np.ndarray:
-    """[E] bool: which edges ``pairs`` [E, 2] of spheres (centres ``c``, radii ``r``, in the field's frame, one
-    unit a height) join two parts of the body that only touch (the module's docstring)."""
-    out = np.zeros(len(pairs), dtype=bool)
-    if not len(pairs):
-        return out
-    i, j = pairs[:, 0], pairs[:, 1]
-    t = np.linspace(0.0, 1.0, samples)[None, :, None]
-    points = c[i][:, None, :] * (1 - t) + c[j][:, None, :] * t
-    least = field.depth(points.reshape(-1, 3)).reshape(len(pairs), samples).min(axis=1)
-    span = np.linalg.norm(c[i] - c[j], axis=1) + r[i] + r[j]
-    check = np.flatnonzero((least < PINCH * np.minimum(r[i], r[j])) & (span <= CONTACT_SPAN))
-    if not len(check):
-        return out
-    surface = field.surface
-    mesh, piece = _surface_pieces(surface)
-    vertex, offset = _nearest_corners(surface, c, unique_ints(pairs[check].ravel()))
-    a, b = vertex[i[check]], vertex[j[check]]
-    between = check[piece[a] != piece[b]]
-    on_one = (piece[a] == piece[b]) & (a != b)
-    check, a, b = check[on_one], a[on_one], b[on_one]
-    if len(check):
-        out[check[_surface_far(mesh, a, b, CONTACT_RATIO * span[check])]] = True
-    if out.any():
-        # Around each contact: the edges between spheres next to a cut one, unpinched (the module's docstring).
-        touched = np.zeros(len(c), dtype=bool)
-        touched[pairs[out].ravel()] = True
-        beside = touched.copy()
-        beside[i[touched[j]]] = True
-        beside[j[touched[i]]] = True
-        again = np.flatnonzero(beside[i] & beside[j] & ~out & (least < NEAR_PINCH * np.minimum(r[i], r[j]))
-                               & (span <= NEAR_SPAN))
-        todo = unique_ints(pairs[again].ravel())
-        todo = todo[vertex[todo] < 0]            # the spheres the first test did not read yet
-        more_vertex, more_offset = _nearest_corners(surface, c, todo)
-        vertex[todo], offset[todo] = more_vertex[todo], more_offset[todo]
-        a, b = vertex[i[again]], vertex[j[again]]
-        on_one = (piece[a] == piece[b]) & (a != b)
-        again, a, b = again[on_one], a[on_one], b[on_one]
-        if len(again):
-            far = again[_surface_far(mesh, a, b, CONTACT_RATIO * span[again] + offset[i[again]] + offset[j[again]])]
-            if len(far):
-                out[_piece_contacts(c, r, pairs, far, out)] = True
-    if len(between):
-        out[_piece_contacts(c, r, pairs, between, out)] = True
-    return out
-
-
-def _nearest_corners(surface, c: np.ndarray, spheres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """([S] vertex, [S] gap): for each of ``spheres`` (indices into the centres ``c`` [S, 3]), the corner of the
-    triangle holding its nearest surface point that lies nearest that point, and how far from it (-1 and 0 for
-    the other spheres)."""
-    vertex = np.full(len(c), -1, dtype=np.int64)
-    gap = np.zeros(len(c))
-    if len(spheres):
-        near = surface.nearest(c[spheres])
-        corner = surface.faces[surface.nearest_faces(near)]
-        gaps = np.linalg.norm(surface.vertices[corner] - near[:, None, :], axis=2)
-        vertex[spheres] = corner[np.arange(len(spheres)), np.argmin(gaps, axis=1)]
-        gap[spheres] = gaps.min(axis=1)
-    return vertex, gap
-
-
-def _surface_far(mesh, a: np.ndarray, b: np.ndarray, limit: np.ndarray) -> np.ndarray:
-    """[N] bool: which surface vertices ``a`` [N] lie farther than ``limit`` [N] from ``b`` [N] over the surface
-    (``mesh``: its edges' lengths, each edge once)."""
-    from scipy.sparse.csgraph import dijkstra
-
-    # Each source's walk bounded at its own pairs' largest limit, not all at the largest of all: the walk's cost
-    # goes as the surface within the bound (the distances within it are the same either way, those beyond it
-    # are beyond every limit they are compared with).
-    # Both directions of each edge stored once (the same graph): an undirected walk transposes the whole mesh's
-    # matrix again on every call (60k faces: 33 walks, 0.01 s of transposes).
-    both = (mesh + mesh.T).tocsr()
-    far = np.zeros(len(a), dtype=bool)
-    for source in unique_ints(a):
-        mine = np.flatnonzero(a == source)
-        reach = dijkstra(both, directed=True, indices=int(source), limit=float(limit[mine].max()))
-        far[mine] = reach[b[mine]] > limit[mine]
-    return far
-
-
-def _piece_contacts(c: np.ndarray, r: np.ndarray, pairs: np.ndarray, between: np.ndarray,
-                    cut: np.ndarray) -> np.ndarray:
-    """Indices into ``pairs`` [E, 2] of the edges among ``between`` (pinched edges whose spheres are nearest two
-    different pieces of the mesh) that are contacts (the module's docstring), ``cut`` [E] the edges cut already."""
-    import heapq
-
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import dijkstra
-
-    n = len(r)
-    i, j = pairs[:, 0], pairs[:, 1]
-    length = np.linalg.norm(c[i] - c[j], axis=1)
-    live = ~cut
-    middle = dijkstra(coo_matrix((length[live], (i[live], j[live])), shape=(n, n)).tocsr(), directed=False,
-                      indices=int(np.argmax(r)))
-    fixed = live.copy()
-    fixed[between] = False
-    root = list(range(n))
-
-    def find(x: int) -> int:
-        while root[x] != x:
-            root[x] = root[root[x]]
-            x = root[x]
-        return x
-
-    near: list[list[tuple[int, float]]] = [[] for _ in range(n)]
-
-    def join(e: int) -> None:
-        a, b, d = int(i[e]), int(j[e]), float(length[e])
-        near[a].append((b, d))
-        near[b].append((a, d))
-        root[find(a)] = find(b)
-
-    def within(a: int, b: int) -> bool:
-        """Whether the edges joined so far lead from a to b within LOOP."""
-        best, heap = {a: 0.0}, [(0.0, a)]
-        while heap:
-            d, x = heapq.heappop(heap)
-            if x == b:
-                return True
-            if d > best[x]:
-                continue
-            for y, step in near[x]:
-                e = d + step
-                if e <= LOOP and e < best.get(y, np.inf):
-                    best[y] = e
-                    heapq.heappush(heap, (e, y))
-        return False
-
-    for e in np.flatnonzero(fixed):
-        join(e)
-    contacts = []
-    for e in between[np.lexsort((between, np.minimum(middle[i[between]], middle[j[between]])))]:
-        a, b = int(i[e]), int(j[e])
-        if find(a) != find(b) or within(a, b):
-            join(e)
-        else:
-            contacts.append(int(e))
-    return np.array(contacts, dtype=np.int64)
-
-
 def _bridge_pieces(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     """``pairs`` [E, 2] plus, for each connected piece, an edge to the nearest sphere of another piece
     (nearest by the gap between the sphere surfaces) whenever that segment stays inside."""
@@ -448,15 +268,3 @@ def _limb_pieces_to_body(field: DistanceField, c: np.ndarray, r: np.ndarray, pai
     return extra
 
 
-def _surface_pieces(surface):
-    """(mesh, piece): the surface's edge graph (CSR, each edge once, weighted by its length) and the connected
-    piece of the mesh each vertex lies on."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    vertices = surface.vertices
-    edges = surface.edges()     # each edge once
-    weights = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
-    mesh = coo_matrix((weights, (edges[:, 0], edges[:, 1])), shape=(len(vertices),) * 2).tocsr()
-    _, piece = connected_components(mesh, directed=False)
-    return mesh, piece
