@@ -1,8 +1,8 @@
 """The sphere graph's contacts (``autorig.discretize.contacts``): between separate pieces of the mesh
 (``_piece_contacts``) an edge that joins a piece where nothing joins it yet is kept, so is one whose spheres
-are joined nearby anyway, and one that closes a loop through the body is cut; the landmarks' bound on the
-distance over the surface (``_pressed_contacts``); and the graph's bridges between pieces the packing left
-apart."""
+are joined nearby anyway, and one that closes a loop through the body is cut; a piece's attachment at its open
+rim goes first (``_rim_first``); the landmarks' bound on the distance over the surface (``_pressed_contacts``);
+and the graph's bridges between pieces the packing left apart."""
 from __future__ import annotations
 
 import numpy as np
@@ -170,3 +170,45 @@ def test_landmarks_bound_the_distance_over_the_surface_and_tell_the_arms_of_a_u_
     apart = float(np.abs(reach[:, left] - reach[:, right]).max())
     round_the_bottom = float(dijkstra(both, directed=True, indices=left)[right])
     assert round_the_bottom > 1.5 and apart > 0.9 * round_the_bottom
+
+
+def test_a_piece_s_attachment_at_its_open_rim_is_kept_before_a_hand_pressed_nearer_the_middle():
+    """The left arm, a piece of its own, joined to the body at its shoulder (13, 1) and where its hand presses
+    into the body by the hip (5, 12), nearer the body's middle: taken by that distance alone, the hand's edge
+    holds the arm and the shoulder's closes the loop and is cut; with the shoulder's edge marked an attachment
+    (its sphere by the arm piece's open rim, ``_rim_first``) the hand's is cut."""
+    c, r = arms_that_meet()
+    c = np.vstack([c, (0.04, 0.72, 0.0), (0.06, 0.78, 0.0)])    # 12: the body by the left hip, 13: by the shoulder
+    r = np.append(r, (0.02, 0.02))
+    c[5] = (0.07, 0.68, 0.02)                                   # the left hand, pressed in beside 12
+    edges = CHAINS[:4] + [(0, 12), (0, 13), (1, 13), (5, 12)]
+    pairs, between, none = np.array(edges), np.array([6, 7]), np.zeros(len(edges), dtype=bool)
+    assert {edges[e] for e in _piece_contacts(c, r, pairs, between, none)} == {(1, 13)}
+    assert {edges[e] for e in _piece_contacts(c, r, pairs, between, none, np.array([True, False]))} == {(5, 12)}
+
+
+def test_a_sphere_by_a_limb_piece_s_open_rim_holds_its_attachment():
+    """``_rim_first``: a tube open at its top (an arm piece, hidden at the shoulder inside the body) and a closed
+    box (the body) around that end; the edge from the body to the tube's sphere by the open rim is an attachment,
+    the one to the sphere at its closed far end (the hand) is not."""
+    from types import SimpleNamespace
+
+    import trimesh
+
+    from autorig.discretize.contacts import _rim_first
+
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    tube = trimesh.creation.cylinder(radius=0.05, height=0.6, sections=12)
+    tube.apply_translation((0.0, 0.0, -0.2))         # from z = -0.5 (its far end) to 0.1, inside the box
+    top = tube.triangles_center[:, 2] > 0.1 - 1e-9
+    tube = trimesh.Trimesh(tube.vertices, tube.faces[~top], process=False)      # open at the top
+    vertices = np.vstack([box.vertices, tube.vertices])
+    faces = np.vstack([box.faces, tube.faces + len(box.vertices)])
+    piece = np.r_[np.zeros(len(box.vertices), dtype=np.int64), np.ones(len(tube.vertices), dtype=np.int64)]
+    c = np.array([(0.3, 0.3, 0.3), (0.0, 0.0, 0.05), (0.0, 0.0, -0.45)])
+    r = np.array([0.2, 0.05, 0.05])
+    nearest = lambda point, members: int(members[np.argmin(np.linalg.norm(vertices[members] - point, axis=1))])
+    vertex = np.array([nearest(c[0], np.flatnonzero(piece == 0))] + [nearest(p, np.flatnonzero(piece == 1))
+                                                                      for p in c[1:]])
+    surface = SimpleNamespace(vertices=vertices, faces=faces)
+    assert _rim_first(surface, piece, vertex, c, r, np.array([(0, 1), (0, 2)])).tolist() == [True, False]

@@ -356,6 +356,19 @@ def test_hands_pressed_into_the_hips_are_ends_of_the_shape(character, tmp_path):
     assert verdict["structure"], verdict["wrong"]
     assert max(verdict["errors"][f"{s}_wrist"] for s in ("left", "right")) < 12.0, verdict["errors"]
 
+
+@pytest.mark.skipif(not IBERIAN.exists(), reason="shared data (../shared/data) is not present")
+def test_an_arm_piece_pressed_into_the_hip_hangs_from_its_shoulder(tmp_path):
+    """0 A.D.'s Iberian spearman with his hands on his hips: each arm is a piece of the mesh of its own, open at
+    the shoulder where it is hidden inside the body, and its hand presses into the hip without a pinch. Taken
+    by its nearness to the body's middle, the hand's junction held the arm and the shoulder's was cut: both
+    arm chains ended by the shoulders (wrists 18 % of the height off, confidence 0.75). A piece's attachment at
+    its open rim comes first (``contacts._rim_first``): both wrists, both ankles and the head by their own artist's
+    joints."""
+    rig, verdict = rig_posed(IBERIAN, "hands on hips", tmp_path)
+    assert verdict["structure"], verdict["wrong"]
+    assert max(verdict["errors"][f"{s}_wrist"] for s in ("left", "right")) < 12.0, verdict["errors"]
+
 def test_the_symmetry_reason_names_the_pair_that_is_off_where_the_mesh_is_symmetric():
     """The symmetry part weighs each pair's mismatch by how much the mesh about it is its own mirror image; its
     reason in words names the pair it counts most against. In a stride the ankles are far from mirror images,

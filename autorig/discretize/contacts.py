@@ -42,7 +42,14 @@ piece's attachment: a head on its neck, an arm at its shoulder, a sword in its f
 it would close a longer loop: two hands that meet in front of the chest, each on its own arm's piece, are
 joined already through both arms and the shoulders (0.8-0.9 of the height on 0 A.D.'s Iberian spearman), and
 with the edge kept the two hands made one limb end and both arm chains went to the corners of the tunic.
-
+A hand on a piece of its own pressed into the hip is no pinch either: there the unpinched edges between pieces
+(less deep than ``NEAR_PINCH`` of the smaller radius, spanning at most ``NEAR_SPAN``) are taken too, and the
+order puts first the edges that hold a piece's attachment (``_rim_first``): a game character's limb piece is
+open where it is hidden inside the body it hangs from (0 A.D.'s arms at the shoulder), and its hand, nearer the
+body's middle than its shoulder when pressed into the hip, was kept as the arm's attachment and the shoulder cut
+(0 A.D.'s Iberian spearman, hands on hips: both wrists 18 % of the height off, confidence 0.75). An edge whose
+sphere on the smaller of its two pieces lies within ``RIM_REACH`` of its radius from that piece's open rim goes
+first.
 """
 from __future__ import annotations
 
@@ -57,6 +64,7 @@ CONTACT_SPAN = 0.12  # heights: spans above this are not checked (bounds the Dij
 NEAR_PINCH = 1.0     # next to a cut edge, a segment less deep than the smaller radius may cross the same contact
 NEAR_SPAN = 0.3      # heights: ... up to this span (the widest trunk spheres' edges to a limb: 0.16-0.17)
 LOOP = 0.4           # heights: a pinched edge between two pieces closing a longer loop is a contact
+RIM_REACH = 2.0      # radii: a sphere this near its piece's open rim holds the piece's attachment (``_rim_first``)
 LANDMARKS = 8        # points far out on the surface whose distances bound a contact's (``_pressed_contacts``)
 
 
@@ -72,12 +80,19 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
     points = c[i][:, None, :] * (1 - t) + c[j][:, None, :] * t
     least = field.depth(points.reshape(-1, 3)).reshape(len(pairs), samples).min(axis=1)
     span = np.linalg.norm(c[i] - c[j], axis=1) + r[i] + r[j]
-    check = np.flatnonzero((least < PINCH * np.minimum(r[i], r[j])) & (span <= CONTACT_SPAN))
-    if not len(check):
-        return out
+    pinched = (least < PINCH * np.minimum(r[i], r[j])) & (span <= CONTACT_SPAN)
+    check = np.flatnonzero(pinched)
     surface = field.surface
     mesh, piece = _surface_pieces(surface)
     vertex, offset = _nearest_corners(surface, c, unique_ints(pairs[check].ravel()))
+
+    def read(edges: np.ndarray) -> None:
+        """Fill ``vertex`` and ``offset`` in for the spheres of ``edges`` not read yet."""
+        todo = unique_ints(pairs[edges].ravel())
+        todo = todo[vertex[todo] < 0]
+        more_vertex, more_offset = _nearest_corners(surface, c, todo)
+        vertex[todo], offset[todo] = more_vertex[todo], more_offset[todo]
+
     a, b = vertex[i[check]], vertex[j[check]]
     between = check[piece[a] != piece[b]]
     on_one = (piece[a] == piece[b]) & (a != b)
@@ -93,10 +108,7 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
         beside[j[touched[i]]] = True
         again = np.flatnonzero(beside[i] & beside[j] & ~out & (least < NEAR_PINCH * np.minimum(r[i], r[j]))
                                & (span <= NEAR_SPAN))
-        todo = unique_ints(pairs[again].ravel())
-        todo = todo[vertex[todo] < 0]            # the spheres the first test did not read yet
-        more_vertex, more_offset = _nearest_corners(surface, c, todo)
-        vertex[todo], offset[todo] = more_vertex[todo], more_offset[todo]
+        read(again)
         a, b = vertex[i[again]], vertex[j[again]]
         on_one = (piece[a] == piece[b]) & (a != b)
         again, a, b = again[on_one], a[on_one], b[on_one]
@@ -104,24 +116,32 @@ def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndar
             far = again[_surface_far(mesh, a, b, CONTACT_RATIO * span[again] + offset[i[again]] + offset[j[again]])]
             if len(far):
                 out[_piece_contacts(c, r, pairs, far, out)] = True
-    if len(between):
-        out[_piece_contacts(c, r, pairs, between, out)] = True
-    out[_pressed_contacts(surface, mesh, piece, c, r, pairs, least, span, out)] = True
+    # Unpinched edges between pieces (a hand on a piece of its own pressed into the hip): cut as pinched ones
+    # are, the pieces' attachments at their open rims taken first (``_rim_first``).
+    near = (least < NEAR_PINCH * np.minimum(r[i], r[j])) & (span <= NEAR_SPAN)
+    loose = np.flatnonzero(~out & ~pinched & near)
+    read(loose)
+    loose = loose[piece[vertex[i[loose]]] != piece[vertex[j[loose]]]]
+    if len(between) or len(loose):
+        between = np.concatenate([between, loose])
+        first = _rim_first(surface, piece, vertex, c, r, pairs[between])
+        out[_piece_contacts(c, r, pairs, between, out, first)] = True
+    # Unpinched contacts on one piece (a hand pressed into the hip), by the landmarks' bound.
+    pressed = np.flatnonzero(~out & near)
+    read(pressed)
+    out[_pressed_contacts(surface, mesh, piece, vertex, offset, c, r, pairs, pressed, span, out)] = True
     return out
 
 
-def _pressed_contacts(surface, mesh, piece, c: np.ndarray, r: np.ndarray, pairs: np.ndarray, least: np.ndarray,
-                      span: np.ndarray, cut: np.ndarray) -> np.ndarray:
-    """Indices into ``pairs`` [E, 2] of the contacts no pinch shows (the module's docstring): among the edges not
-    ``cut`` [E] yet, less deep than the smaller radius (``least`` [E]) and spanning at most ``NEAR_SPAN``
-    (``span`` [E]), those whose spheres' nearest surface corners lie on one piece of the mesh (``mesh``, ``piece``:
-    ``_surface_pieces``) and farther apart over it than ``CONTACT_RATIO`` times the span by the landmarks' bound,
-    and that close a loop longer than ``LOOP`` through the body (``_piece_contacts``)."""
+def _pressed_contacts(surface, mesh, piece: np.ndarray, vertex: np.ndarray, offset: np.ndarray, c: np.ndarray,
+                      r: np.ndarray, pairs: np.ndarray, check: np.ndarray, span: np.ndarray, cut: np.ndarray
+                      ) -> np.ndarray:
+    """Indices into ``pairs`` [E, 2] of the contacts no pinch shows (the module's docstring): of the edges
+    ``check`` (indices; spanning ``span`` [E]), those whose spheres' nearest surface corners (``vertex`` [S], at
+    ``offset`` [S] from the nearest points) lie on one piece of the mesh (``mesh``, ``piece``: ``_surface_pieces``)
+    and farther apart over it than ``CONTACT_RATIO`` times the span by the landmarks' bound, and that close a loop
+    longer than ``LOOP`` through the body (``_piece_contacts``; ``cut`` [E] the edges cut already)."""
     i, j = pairs[:, 0], pairs[:, 1]
-    check = np.flatnonzero(~cut & (least < NEAR_PINCH * np.minimum(r[i], r[j])) & (span <= NEAR_SPAN))
-    if not len(check):
-        return np.zeros(0, dtype=np.int64)
-    vertex, offset = _nearest_corners(surface, c, unique_ints(pairs[check].ravel()))
     a, b = vertex[i[check]], vertex[j[check]]
     same = (piece[a] == piece[b]) & (a != b)
     check, a, b = check[same], a[same], b[same]
@@ -191,10 +211,42 @@ def _surface_far(mesh, a: np.ndarray, b: np.ndarray, limit: np.ndarray) -> np.nd
     return far
 
 
+def _rim_first(surface, piece: np.ndarray, vertex: np.ndarray, c: np.ndarray, r: np.ndarray,
+               edges: np.ndarray) -> np.ndarray:
+    """[N] bool: which of ``edges`` [N, 2] (sphere pairs whose nearest surface corners, ``vertex`` [S], lie on two
+    different pieces of the mesh, ``piece`` [V]) hold an attachment: the sphere on the smaller piece (by its
+    area) lies within ``RIM_REACH`` of its radius from that piece's open rim (the module's docstring)."""
+    from scipy.spatial import cKDTree
+
+    faces = surface.faces
+    count = len(surface.vertices)
+    sides = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    keys, uses = np.unique(sides[:, 0] * count + sides[:, 1], return_counts=True)
+    rim = np.zeros(count, dtype=bool)
+    rim[keys[uses == 1] // count] = rim[keys[uses == 1] % count] = True
+    corners = surface.vertices[faces]
+    area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    size = np.bincount(piece[faces[:, 0]], weights=area, minlength=piece.max() + 1)
+    a, b = edges[:, 0], edges[:, 1]
+    pa, pb = piece[vertex[a]], piece[vertex[b]]
+    small = np.where(size[pa] < size[pb], a, b)
+    part = np.where(size[pa] < size[pb], pa, pb)
+    out = np.zeros(len(edges), dtype=bool)
+    for p in unique_ints(part):
+        ring = np.flatnonzero(rim & (piece == p))
+        if len(ring):
+            mine = np.flatnonzero(part == p)
+            gap, _ = cKDTree(surface.vertices[ring]).query(c[small[mine]])
+            out[mine] = gap < RIM_REACH * r[small[mine]]
+    return out
+
+
 def _piece_contacts(c: np.ndarray, r: np.ndarray, pairs: np.ndarray, between: np.ndarray,
-                    cut: np.ndarray) -> np.ndarray:
-    """Indices into ``pairs`` [E, 2] of the edges among ``between`` (pinched edges whose spheres are nearest two
-    different pieces of the mesh) that are contacts (the module's docstring), ``cut`` [E] the edges cut already."""
+                    cut: np.ndarray, first: np.ndarray | None = None) -> np.ndarray:
+    """Indices into ``pairs`` [E, 2] of the edges among ``between`` (edges whose spheres are nearest two different
+    pieces of the mesh, or that the surface found far apart) that are contacts (the module's docstring), ``cut``
+    [E] the edges cut already; ``first`` [len(between)] bool: the edges taken before the others (``_rim_first``),
+    each group in the order of its distance from the body's middle."""
     import heapq
 
     from scipy.sparse import coo_matrix
@@ -243,7 +295,8 @@ def _piece_contacts(c: np.ndarray, r: np.ndarray, pairs: np.ndarray, between: np
     for e in np.flatnonzero(fixed):
         join(e)
     contacts = []
-    for e in between[np.lexsort((between, np.minimum(middle[i[between]], middle[j[between]])))]:
+    rank = np.zeros(len(between)) if first is None else (~first).astype(float)    # attachments first
+    for e in between[np.lexsort((between, np.minimum(middle[i[between]], middle[j[between]]), rank))]:
         a, b = int(i[e]), int(j[e])
         if find(a) != find(b) or within(a, b):
             join(e)
