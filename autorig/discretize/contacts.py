@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..input.facing import unique_ints
+from ..input.facing import _boundary_half_edges, face_cross, unique_ints
 from .distance import DistanceField
 
 PINCH = 0.5          # a segment whose least depth is under this fraction of the smaller radius may cross a contact
@@ -219,13 +219,11 @@ def _rim_first(surface, piece: np.ndarray, vertex: np.ndarray, c: np.ndarray, r:
     from scipy.spatial import cKDTree
 
     faces = surface.faces
-    count = len(surface.vertices)
-    sides = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    keys, uses = np.unique(sides[:, 0] * count + sides[:, 1], return_counts=True)
-    rim = np.zeros(count, dtype=bool)
-    rim[keys[uses == 1] // count] = rim[keys[uses == 1] % count] = True
-    corners = surface.vertices[faces]
-    area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    tails, heads = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    lone = _boundary_half_edges(tails, heads)
+    rim = np.zeros(len(surface.vertices), dtype=bool)
+    rim[tails[lone]] = rim[heads[lone]] = True
+    area = np.linalg.norm(face_cross(surface.vertices, faces), axis=1)
     size = np.bincount(piece[faces[:, 0]], weights=area, minlength=piece.max() + 1)
     a, b = edges[:, 0], edges[:, 1]
     pa, pb = piece[vertex[a]], piece[vertex[b]]
