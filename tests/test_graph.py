@@ -212,3 +212,30 @@ def test_a_sphere_by_a_limb_piece_s_open_rim_holds_its_attachment():
                                                                       for p in c[1:]])
     surface = SimpleNamespace(vertices=vertices, faces=faces)
     assert _rim_first(surface, piece, vertex, c, r, np.array([(0, 1), (0, 2)])).tolist() == [True, False]
+
+
+def test_a_sphere_between_two_faces_reads_both_whichever_its_nearest_point_is():
+    """A medial sphere touches the surface on two sides at once, and which of the two its nearest point is, is a
+    rounding error's choice (a sphere inside both a hand and the hip it presses into). ``_far_side_corners`` reads
+    the other side: in a flat slab, a sphere half-way between its faces moved up or down by 1e-9 has the top face
+    or the bottom one nearest, and with its far side it reads both either way."""
+    import trimesh
+
+    from autorig.discretize.contacts import _far_side_corners, _nearest_corners
+    from autorig.discretize.surface import SurfaceQuery
+
+    slab = trimesh.creation.box(extents=(1.0, 0.1, 1.0))
+    slab = slab.subdivide().subdivide()
+    surface = SurfaceQuery(slab.vertices, slab.faces)
+    r = np.array([0.05, 0.05])
+    sides = []
+    for nudge in (1e-9, -1e-9):
+        c = np.array([[0.1, nudge, 0.1], [-0.2, nudge, 0.15]])
+        vertex, _ = _nearest_corners(surface, c, np.arange(2))
+        other, gap = _far_side_corners(surface, c, r, vertex, np.arange(2))
+        heights = np.sign(surface.vertices[np.c_[vertex, other], 1])
+        sides.append(heights)
+        assert np.all(gap < 0.3)
+    assert sides[0][0, 0] == -sides[1][0, 0]                        # the nearest side: up, then down
+    for heights in sides:
+        assert np.all(np.sort(heights, axis=1) == [-1, 1])          # both faces, either way

@@ -32,9 +32,17 @@ the limbs, each the farthest over the surface from those before), |d(L, a) - d(L
 the surface distance between a and b. An edge less deep than ``NEAR_PINCH`` of its smaller radius, spanning at
 most ``NEAR_SPAN``, whose nearest surface points that bound puts farther apart than ``CONTACT_RATIO`` times the
 span (as for a pinched edge), is a contact when it closes a loop longer than ``LOOP`` (``_piece_contacts``).
+A medial sphere touches the surface on two sides at once, equally near, and a sphere inside both the hand and the
+hip touches one on each: which of them its nearest point is, is a rounding error's choice, and it decided on
+which side of the contact the sphere's edges were cut (a posed MakeHuman body's hand moved 3 % of the height
+under noise of 1e-6 of it). So each sphere is read on both sides (``_far_side_corners``: the nearest point seen
+from ``FAR_SIDE`` of its radius beyond its centre, away from its nearest point) and an edge's bound is the largest
+between either side of one sphere and either side of the other: such a sphere's edges to both parts are
+candidates, and the order of ``_piece_contacts`` keeps the one that joins it first. A limb's sphere touches its
+front and back, which are no farther apart over the surface than round the limb.
 
 Between separate pieces of the mesh (a sword in a hand, a separate head, a game character's forearm-and-hand
-pieces) every junction is pinched and the surface cannot tell anything: there the graph itself does
+pieces) the junctions are mostly pinched and the surface cannot tell anything: there the graph itself does
 (``_piece_contacts``). The pinched edges between pieces are taken in the order of their distance from the
 body's middle (along the graph, from its widest sphere), each kept when it joins what is not yet joined (a
 piece's attachment: a head on its neck, an arm at its shoulder, a sword in its fist) or what is joined within
@@ -66,6 +74,7 @@ NEAR_SPAN = 0.3      # heights: ... up to this span (the widest trunk spheres' e
 LOOP = 0.4           # heights: a pinched edge between two pieces closing a longer loop is a contact
 RIM_REACH = 2.0      # radii: a sphere this near its piece's open rim holds the piece's attachment (``_rim_first``)
 LANDMARKS = 8        # points far out on the surface whose distances bound a contact's (``_pressed_contacts``)
+FAR_SIDE = 0.5       # radii: a sphere's far side is read from this far off its centre (``_far_side_corners``)
 
 
 def _contacts(field: DistanceField, c: np.ndarray, r: np.ndarray, pairs: np.ndarray,
@@ -139,19 +148,28 @@ def _pressed_contacts(surface, mesh, piece: np.ndarray, vertex: np.ndarray, offs
     """Indices into ``pairs`` [E, 2] of the contacts no pinch shows (the module's docstring): of the edges
     ``check`` (indices; spanning ``span`` [E]), those whose spheres' nearest surface corners (``vertex`` [S], at
     ``offset`` [S] from the nearest points) lie on one piece of the mesh (``mesh``, ``piece``: ``_surface_pieces``)
-    and farther apart over it than ``CONTACT_RATIO`` times the span by the landmarks' bound, and that close a loop
-    longer than ``LOOP`` through the body (``_piece_contacts``; ``cut`` [E] the edges cut already)."""
+    and farther apart over it than ``CONTACT_RATIO`` times the span by the landmarks' bound (the largest between
+    either side of one sphere and either side of the other, ``_far_side_corners``), and that close a loop longer
+    than ``LOOP`` through the body (``_piece_contacts``; ``cut`` [E] the edges cut already)."""
     i, j = pairs[:, 0], pairs[:, 1]
     a, b = vertex[i[check]], vertex[j[check]]
     same = (piece[a] == piece[b]) & (a != b)
     check, a, b = check[same], a[same], b[same]
+    # Each sphere touches the surface on two sides (a medial sphere's nearest points tie): the far side's too.
+    other, gap = _far_side_corners(surface, c, r, vertex, unique_ints(pairs[check].ravel()))
     both = (mesh + mesh.T).tocsr()
     bound = np.zeros(len(check))
     for part in unique_ints(piece[a]):
         mine = np.flatnonzero(piece[a] == part)
         reach = _landmark_distances(both, surface.vertices, np.flatnonzero(piece == part))
-        bound[mine] = np.abs(reach[:, a[mine]] - reach[:, b[mine]]).max(axis=0)
-    limit = CONTACT_RATIO * span[check] + offset[i[check]] + offset[j[check]]
+        for x in (a[mine], other[i[check[mine]]]):
+            for y in (b[mine], other[j[check[mine]]]):
+                on = (piece[x] == part) & (piece[y] == part)     # a far side on another piece: no bound
+                apart = np.zeros(len(x))
+                apart[on] = np.abs(reach[:, x[on]] - reach[:, y[on]]).max(axis=0)
+                bound[mine] = np.maximum(bound[mine], apart)
+    limit = (CONTACT_RATIO * span[check] + np.maximum(offset[i[check]], gap[i[check]])
+             + np.maximum(offset[j[check]], gap[j[check]]))
     far = check[bound > limit]
     if not len(far):
         return np.zeros(0, dtype=np.int64)
@@ -190,6 +208,27 @@ def _nearest_corners(surface, c: np.ndarray, spheres: np.ndarray) -> tuple[np.nd
         vertex[spheres] = corner[np.arange(len(spheres)), np.argmin(gaps, axis=1)]
         gap[spheres] = gaps.min(axis=1)
     return vertex, gap
+
+
+def _far_side_corners(surface, c: np.ndarray, r: np.ndarray, vertex: np.ndarray, spheres: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """([S] vertex, [S] gap) as ``_nearest_corners`` gives them, for each of ``spheres``' far side: the corner
+    nearest the surface point nearest a point ``FAR_SIDE`` of its radius from its centre, away from its nearest
+    point. A medial sphere touches the surface at two points or more, equally near; which one its nearest point
+    is, is a rounding error's choice (a sphere inside both a hand and the hip it presses into touches both), and
+    the far side reads the other. For the other spheres (and those whose nearest corner is unread, ``vertex``
+    -1), ``vertex``'s own corner and 0."""
+    out = vertex.copy()
+    gap = np.zeros(len(c))
+    spheres = spheres[vertex[spheres] >= 0]
+    if len(spheres):
+        near = surface.nearest(c[spheres])
+        away = c[spheres] - near
+        away /= np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-12)
+        moved = c[spheres] + FAR_SIDE * r[spheres, None] * away
+        corner, gaps = _nearest_corners(surface, moved, np.arange(len(spheres)))
+        out[spheres], gap[spheres] = corner, gaps
+    return out, gap
 
 
 def _surface_far(mesh, a: np.ndarray, b: np.ndarray, limit: np.ndarray) -> np.ndarray:
